@@ -1,0 +1,185 @@
+package ielas
+
+import java.nio.file.{Files, Path, Paths}
+import java.nio.charset.StandardCharsets
+
+/** Writes [[ElasParams]] as the configuration JSON the golden model reads, and reads such a file back.
+  *
+  * The format is one flat JSON object: integers, floats, strings, and integer arrays; booleans are 0/1 so that
+  * OpenCV's `cv::FileStorage` reads every field. Keys are the case-class field names; derived values follow.
+  */
+object ConfigJson {
+  private def b(x: Boolean): Int = if (x) 1 else 0
+
+  def fields(p: ElasParams): Seq[(String, Any)] = Seq(
+    "name" -> p.name,
+    "maxWidth" -> p.maxWidth,
+    "maxHeight" -> p.maxHeight,
+    "dispMax" -> p.dispMax,
+    "windowSize" -> p.windowSize,
+    "storedDisparities" -> p.storedDisparities,
+    "candidateStep" -> p.candidateStep,
+    "gridSize" -> p.gridSize,
+    "parameterSet" -> p.parameterSet.name,
+    "supportTexture" -> p.supportTexture,
+    "supportMinRange" -> p.supportMinRange,
+    "inconWindowSize" -> p.inconWindowSize,
+    "inconThreshold" -> p.inconThreshold,
+    "inconMinSupport" -> p.inconMinSupport,
+    "lrThreshold" -> p.lrThreshold,
+    "beta" -> p.beta,
+    "sigma" -> p.sigma,
+    "speckleSimThreshold" -> p.speckleSimThreshold,
+    "speckleSize" -> p.speckleSize,
+    "speckleWindowRows" -> p.speckleWindowRows,
+    "ipolColumnWindow" -> p.ipolColumnWindow,
+    "fillRule" -> p.fillRule.name,
+    "fillEpsilon" -> p.fillEpsilon,
+    "sDelta" -> p.sDelta,
+    "epsilon" -> p.epsilon,
+    "fillC" -> p.fillC,
+    "supportLanes" -> p.supportLanesUsed,
+    "denseLanes" -> p.denseLanesUsed,
+    // derived (read-only for the golden model)
+    "supportThresholdPercent" -> p.supportThresholdPercent,
+    "gamma" -> p.gamma,
+    "sradius" -> p.sradius,
+    "planeRadius" -> p.planeRadius,
+    "matchTexture" -> p.matchTexture,
+    "addCorners" -> b(p.addCorners),
+    "ipolGapWidth" -> p.ipolGapWidth,
+    "filterMedian" -> b(p.filterMedian),
+    "filterAdaptiveMean" -> b(p.filterAdaptiveMean),
+    "postprocessOnlyLeft" -> b(p.postprocessOnlyLeft),
+    "descriptorBytes" -> p.descriptorBytes,
+    "descriptorMargin" -> p.descriptorMargin,
+    "supportMargin" -> p.supportMargin,
+    "latticeColsMax" -> p.latticeColsMax,
+    "latticeRowsMax" -> p.latticeRowsMax,
+    "gridColsMax" -> p.gridColsMax,
+    "gridRowsMax" -> p.gridRowsMax,
+    "priorTable" -> p.priorTable
+  )
+
+  private def render(v: Any): String = v match {
+    case s: String  => "\"" + s + "\""
+    case d: Double  => if (d == math.rint(d)) f"$d%.1f" else d.toString
+    case i: Int     => i.toString
+    case xs: Seq[_] => xs.map(render).mkString("[", ", ", "]")
+    case other      => throw new IllegalArgumentException(s"ConfigJson: cannot render $other")
+  }
+
+  def toJson(p: ElasParams): String =
+    fields(p).map { case (k, v) => s"""  "$k": ${render(v)}""" }.mkString("{\n", ",\n", "\n}\n")
+
+  def write(p: ElasParams, dir: Path): Path = {
+    Files.createDirectories(dir)
+    val file = dir.resolve(s"${p.name}.json")
+    Files.write(file, toJson(p).getBytes(StandardCharsets.UTF_8))
+    file
+  }
+
+  /** A configuration by name (one of [[ElasParams.named]]) or by JSON file path. */
+  def load(nameOrFile: String): ElasParams =
+    if (nameOrFile.endsWith(".json")) fromJson(new String(Files.readAllBytes(Paths.get(nameOrFile)), StandardCharsets.UTF_8), nameOrFile)
+    else ElasParams.byName(nameOrFile)
+
+  /** Reads the constructor fields back; derived fields in the file are ignored (they are recomputed). */
+  def fromJson(text: String, origin: String = "<json>"): ElasParams = {
+    val m = FlatJson.parse(text, origin)
+    val d = ElasParams()
+    def int(k: String, default: Int): Int = m.get(k).map {
+      case n: Double if n == math.rint(n) => n.toInt
+      case other => throw new IllegalArgumentException(s"$origin: $k must be an integer, got $other")
+    }.getOrElse(default)
+    def dbl(k: String, default: Double): Double = m.get(k).map {
+      case n: Double => n
+      case other => throw new IllegalArgumentException(s"$origin: $k must be a number, got $other")
+    }.getOrElse(default)
+    def str(k: String, default: String): String = m.get(k).map {
+      case s: String => s
+      case other => throw new IllegalArgumentException(s"$origin: $k must be a string, got $other")
+    }.getOrElse(default)
+    ElasParams(
+      name = str("name", Paths.get(origin).getFileName.toString.stripSuffix(".json")),
+      maxWidth = int("maxWidth", d.maxWidth),
+      maxHeight = int("maxHeight", d.maxHeight),
+      dispMax = int("dispMax", d.dispMax),
+      windowSize = int("windowSize", d.windowSize),
+      storedDisparities = int("storedDisparities", d.storedDisparities),
+      candidateStep = int("candidateStep", d.candidateStep),
+      gridSize = int("gridSize", d.gridSize),
+      parameterSet = ParameterSet.byName(str("parameterSet", d.parameterSet.name)),
+      supportTexture = int("supportTexture", d.supportTexture),
+      supportMinRange = int("supportMinRange", d.supportMinRange),
+      inconWindowSize = int("inconWindowSize", d.inconWindowSize),
+      inconThreshold = int("inconThreshold", d.inconThreshold),
+      inconMinSupport = int("inconMinSupport", d.inconMinSupport),
+      lrThreshold = int("lrThreshold", d.lrThreshold),
+      beta = dbl("beta", d.beta),
+      sigma = dbl("sigma", d.sigma),
+      speckleSimThreshold = int("speckleSimThreshold", d.speckleSimThreshold),
+      speckleSize = int("speckleSize", d.speckleSize),
+      speckleWindowRows = int("speckleWindowRows", d.speckleWindowRows),
+      ipolColumnWindow = int("ipolColumnWindow", d.ipolColumnWindow),
+      fillRule = FillRule.byName(str("fillRule", d.fillRule.name)),
+      fillEpsilon = int("fillEpsilon", d.fillEpsilon),
+      sDelta = int("sDelta", d.sDelta),
+      epsilon = int("epsilon", d.epsilon),
+      fillC = int("fillC", d.fillC),
+      supportLanes = int("supportLanes", d.supportLanes),
+      denseLanes = int("denseLanes", d.denseLanes)
+    )
+  }
+}
+
+/** A minimal parser for one flat JSON object of numbers, strings and number arrays. */
+object FlatJson {
+  def parse(text: String, origin: String): Map[String, Any] = {
+    var i = 0
+    def fail(msg: String) = throw new IllegalArgumentException(s"$origin: malformed JSON at offset $i: $msg")
+    def ws(): Unit = while (i < text.length && text(i).isWhitespace) i += 1
+    def expect(c: Char): Unit = { ws(); if (i >= text.length || text(i) != c) fail(s"expected '$c'"); i += 1 }
+    def string(): String = {
+      expect('"'); val start = i
+      while (i < text.length && text(i) != '"') { if (text(i) == '\\') fail("escapes are not supported"); i += 1 }
+      if (i >= text.length) fail("unterminated string")
+      val s = text.substring(start, i); i += 1; s
+    }
+    def number(): Double = {
+      ws(); val start = i
+      while (i < text.length && "+-0123456789.eE".contains(text(i))) i += 1
+      text.substring(start, i).toDoubleOption.getOrElse(fail("expected a number"))
+    }
+    def value(): Any = {
+      ws()
+      if (i >= text.length) fail("unexpected end")
+      text(i) match {
+        case '"' => string()
+        case '[' =>
+          i += 1; ws()
+          val xs = scala.collection.mutable.ArrayBuffer[Double]()
+          if (i < text.length && text(i) == ']') { i += 1 }
+          else {
+            var more = true
+            while (more) { xs += number(); ws(); if (i < text.length && text(i) == ',') i += 1 else { expect(']'); more = false } }
+          }
+          xs.toSeq
+        case _ => number()
+      }
+    }
+    expect('{')
+    val out = scala.collection.mutable.LinkedHashMap[String, Any]()
+    ws()
+    if (i < text.length && text(i) == '}') i += 1
+    else {
+      var more = true
+      while (more) {
+        val k = string(); expect(':'); out(k) = value(); ws()
+        if (i < text.length && text(i) == ',') i += 1 else { expect('}'); more = false }
+      }
+    }
+    ws(); if (i != text.length) fail("trailing text")
+    out.toMap
+  }
+}
