@@ -1,0 +1,108 @@
+# Streaming iELAS accelerator generator: the front door. `make help` lists targets and variables.
+SHELL := /bin/bash
+.DEFAULT_GOAL := help
+
+CONFIG  ?= kitti
+STAGE   ?= descriptor
+SHARED  ?= ../shared/data
+LEFT    ?=
+RIGHT   ?=
+GT      ?=
+OUT     ?= build/simulate/$(notdir $(basename $(CONFIG)))-$(STAGE)
+MODE    ?= ielas
+PRESET  ?=
+A       ?=
+B       ?=
+SWEEP   ?= quick
+
+SBT      := ./sbt
+SBT_RUN   = $(SBT) $(1) </dev/null
+GOLDEN   := golden/build/ielas-golden
+COMPARE  := golden/build/ielas-compare
+SCALA_SRC  := $(shell find src/main/scala -name '*.scala' 2>/dev/null)
+GOLDEN_SRC := $(shell find golden/src golden/include golden/tools golden/tests golden/CMakeLists.txt -type f 2>/dev/null)
+CONFIG_NAME = $(notdir $(basename $(CONFIG)))
+VERILOG_DIR = build/verilog/$(CONFIG_NAME)
+
+.PHONY: help deps deps-sim deps-golden deps-synth configs golden golden-test verilog lint simulate compare run \
+        test test-golden test-hw test-full bench eval synth sweep clean
+
+help: ## this list
+	@echo "Streaming iELAS stereo accelerator generator"
+	@echo
+	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | sed -E 's/:.*## /\t/' | awk -F'\t' '{printf "  make %-10s %s\n", $$1, $$2}'
+	@echo
+	@echo "Variables: CONFIG=<name|file.json> (default kitti)  STAGE=descriptor|support|filter|interp|grid|..."
+	@echo "           LEFT= RIGHT= GT= (a stereo pair, PNG/PGM)  OUT=<dir>  A= B= (dump dirs for compare)"
+	@echo "           MODE=elas|ielas PRESET=robotics|middlebury (eval)  IELAS_SEED=<n> (replay a test seed)"
+
+# ---- installs (idempotent; skipped when present) ----
+deps: deps-sim deps-golden ## install Verilator and OpenCV if missing (apt); sbt comes from ./sbt
+deps-sim:
+	@scripts/install-deps.sh verilator
+deps-golden:
+	@scripts/install-deps.sh opencv
+deps-synth:
+	@scripts/install-deps.sh yosys
+
+# ---- parameters ----
+configs: ## regenerate golden/configs/*.json from ElasParams
+	$(call SBT_RUN,"run configs golden/configs")
+
+# ---- golden model ----
+golden: $(GOLDEN) ## build ielas-golden (CMake + OpenCV; no sbt)
+$(GOLDEN) $(COMPARE) &: $(GOLDEN_SRC) | deps-golden
+	cmake -S golden -B golden/build -DCMAKE_BUILD_TYPE=Release >/dev/null
+	cmake --build golden/build -j2
+
+test-golden: golden ## golden unit tests (hand-computed cases) and CLI error tests
+	ctest --test-dir golden/build --output-on-failure -j2
+
+# ---- hardware ----
+verilog: deps-sim ## SystemVerilog of the IElas top in build/verilog/<config>/ + memory summary
+	$(call SBT_RUN,"run verilog $(CONFIG) $(VERILOG_DIR)")
+	@$(MAKE) --no-print-directory lint CONFIG=$(CONFIG)
+
+lint: ## verilator --lint-only -Wall on build/verilog/<config>/*.sv (+ lint.vlt waivers)
+	@test -n "$$(ls $(VERILOG_DIR)/*.sv 2>/dev/null)" || { echo "lint: no Verilog in $(VERILOG_DIR) (run make verilog CONFIG=$(CONFIG))"; exit 1; }
+	verilator --lint-only -Wall $(wildcard $(VERILOG_DIR)/lint.vlt) $(VERILOG_DIR)/*.sv --top-module IElas
+	@echo "lint: clean ($(VERILOG_DIR))"
+
+simulate: deps-sim ## Verilator model up to STAGE: writes STAGE's .npy files and cycles.txt to OUT
+	@test -n "$(LEFT)" -a -n "$(RIGHT)" || { echo "simulate: set LEFT= and RIGHT="; exit 1; }
+	$(call SBT_RUN,"Test/runMain ielas.sim.Simulate --config $(CONFIG) --stage $(STAGE) --left $(abspath $(LEFT)) --right $(abspath $(RIGHT)) --out $(abspath $(OUT))")
+
+compare: $(COMPARE) ## compare every .npy in A= and B= (0 only if >= 1 file compared and all equal)
+	@test -n "$(A)" -a -n "$(B)" || { echo "compare: set A= and B="; exit 1; }
+	$(COMPARE) $(A) $(B)
+
+run: golden verilog ## the main job: Verilog for kitti, then a stereo pair through the hardware in Verilator
+	$(call SBT_RUN,"Test/runMain ielas.sim.RunDemo --config $(CONFIG) $(if $(LEFT),--left $(abspath $(LEFT))) $(if $(RIGHT),--right $(abspath $(RIGHT))) $(if $(GT),--gt $(abspath $(GT)))")
+
+# ---- tests ----
+test: deps test-golden test-hw ## everything CI runs (small configurations; < 60 min cold on 2 cores)
+	@$(MAKE) --no-print-directory verilog CONFIG=small
+	@$(MAKE) --no-print-directory verilog CONFIG=kitti
+	@echo "make test: all passed"
+
+test-hw: golden
+	$(call SBT_RUN,test)
+
+test-full: golden ## full-size frames end to end (not in CI)
+	@echo "test-full: not implemented yet (needs the whole accelerator)"; exit 1
+
+# ---- measurements ----
+eval: golden ## accuracy tables: MODE=elas|ielas PRESET=robotics|middlebury or CONFIG=
+	scripts/eval.sh $(MODE) $(if $(PRESET),--preset $(PRESET),--config $(CONFIG)) $(EVAL_ARGS)
+
+bench: ## cycles/pixel, latency, simulator speed -> docs/performance.md
+	@echo "bench: not implemented yet (needs the whole accelerator)"; exit 1
+
+synth: deps-synth ## Yosys resource table for one configuration
+	@echo "synth: not implemented yet"; exit 1
+
+sweep: deps-synth ## the parameter sweep (SWEEP=quick|full)
+	@echo "sweep: not implemented yet"; exit 1
+
+clean: ## remove build outputs (keeps the sbt launcher cache)
+	rm -rf golden/build target project/target test_run_dir $(filter-out build/sbt-launcher,$(wildcard build/*))

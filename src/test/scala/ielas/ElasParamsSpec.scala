@@ -1,0 +1,65 @@
+package ielas
+
+import java.nio.charset.StandardCharsets
+import java.nio.file.{Files, Paths}
+import org.scalatest.flatspec.AnyFlatSpec
+import org.scalatest.matchers.should.Matchers
+
+class ElasParamsSpec extends AnyFlatSpec with Matchers {
+  private val configDir = Paths.get("golden/configs")
+
+  "golden/configs" should "hold exactly the named configurations, as ElasParams writes them today" in {
+    val committed = Files.list(configDir).toArray.map(_.toString).filter(_.endsWith(".json")).map(Paths.get(_)).toSeq
+    val expectedNames = ElasParams.named.map(p => s"${p.name}.json").sorted
+    withClue("stale golden/configs (run `make configs`): ") {
+      committed.map(_.getFileName.toString).sorted shouldBe expectedNames
+      for (p <- ElasParams.named) {
+        val onDisk = new String(Files.readAllBytes(configDir.resolve(s"${p.name}.json")), StandardCharsets.UTF_8)
+        withClue(s"${p.name}.json: ") { onDisk shouldBe ConfigJson.toJson(p) }
+      }
+    }
+  }
+
+  "ConfigJson" should "read back every named configuration unchanged" in {
+    for (p <- ElasParams.named) ConfigJson.fromJson(ConfigJson.toJson(p), s"${p.name}.json") shouldBe
+      p.copy(supportLanes = p.supportLanesUsed, denseLanes = p.denseLanesUsed)
+  }
+
+  it should "reject malformed JSON with the offset" in {
+    val e = the[IllegalArgumentException] thrownBy ConfigJson.fromJson("""{"dispMax": 63,, }""", "bad.json")
+    e.getMessage should include("bad.json: malformed JSON")
+  }
+
+  "the prior table" should "match libelas's values (ELAS_SPEC §0)" in {
+    ElasParams.byName("kitti").priorTable.take(5) shouldBe Seq(-14, -9, -2, 0, 0)
+    ElasParams.byName("kitti-middlebury").priorTable.take(5) shouldBe Seq(-9, -5, -1, 0, 0)
+    ElasParams.byName("kitti").planeRadius shouldBe 2
+    ElasParams.byName("kitti-middlebury").planeRadius shouldBe 3
+  }
+
+  "the lattice" should "count nodes at 0, step, ... plus the last pixel when off-step" in {
+    val p = ElasParams()
+    p.latticeCount(1241) shouldBe 249 // 0..1240, 1240 = W-1 is on the step
+    p.latticeCount(1242) shouldBe 250 // 0..1240 plus 1241
+    p.latticeCount(376) shouldBe 76 //   0..375, 375 on the step
+    p.latticeCount(375) shouldBe 76 //   0..370 plus 374
+  }
+
+  "illegal parameters" should "fail at elaboration naming the parameter and its legal range" in {
+    def msg(f: => ElasParams): String = (the[IllegalArgumentException] thrownBy f).getMessage
+    msg(ElasParams(windowSize = 4)) should (include("windowSize") and include("legal: 3, 5, 7"))
+    msg(ElasParams(maxWidth = 16)) should (include("maxWidth") and include("legal: 32..8192"))
+    msg(ElasParams(dispMax = 255, storedDisparities = 300)) should (include("storedDisparities") and include("1..256"))
+    msg(ElasParams(maxWidth = 64, dispMax = 100)) should (include("dispMax") and include("below maxWidth"))
+    msg(ElasParams(gridSize = 3)) should (include("gridSize") and include("legal: 5..256"))
+    msg(ConfigJson.load("no-such-config")) should (include("configuration") and include("kitti"))
+  }
+
+  "support lanes" should "be the lowest count that keeps 1 pixel per clock" in {
+    val k = ElasParams.byName("kitti")
+    // 2 sweeps of ceil(256 / lanes) cycles plus fixed overhead within step*step = 25 cycles per lattice point
+    val lanes = k.supportLanesUsed
+    (2 * ((256 + lanes - 1) / lanes) + ElasParams.supportOverheadCycles) should be <= 25
+    (2 * ((256 + lanes - 2) / (lanes - 1)) + ElasParams.supportOverheadCycles) should be > 25
+  }
+}
