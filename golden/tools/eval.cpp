@@ -8,6 +8,7 @@
 //   ielas-eval crop --in F --out G --width W --height H      (centred window; PNG kept bit for bit, PFM too)
 //   ielas-eval colour --disp D --out C.png [--colour-max N]
 //   ielas-eval gt-to-pfm --gt G [--gt-scale S] [--add K] --out F.pfm   (GT as a fake prediction, for tests)
+//   ielas-eval size FILE                                               (prints "W H")
 //
 // Disparity inputs: PFM (negative, inf or NaN = invalid); KITTI PNG (uint16, value/256, 0 = invalid);
 // the golden model's disparity.npy (int16 disparity*16, negative = invalid).
@@ -16,6 +17,7 @@
 // Region = pixels with GT, minus pixels where --mask is not 255, minus pixels where --exclude-mask is non-zero.
 // Output: one CSV line (columns in csvHeader) on stdout.
 #include <opencv2/core.hpp>
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -439,6 +441,14 @@ int runGtToPfm(const Args& args) {
   return 0;
 }
 
+// "W H" of an image or PFM, for the scripts' size checks.
+int runSize(const std::string& path) {
+  const cv::Mat image = lowerExtension(path) == ".pfm" ? readPfm(path) : cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (image.empty()) throw EvalError("cannot read " + path);
+  std::cout << image.cols << " " << image.rows << "\n";
+  return 0;
+}
+
 int runColour(const Args& args) {
   writePng(args.get("--out"), colourise(loadPrediction(args.get("--disp")), args.number("--colour-max", 0.0)));
   return 0;
@@ -451,12 +461,14 @@ void usage() {
                "       ielas-eval header\n"
                "       ielas-eval crop --in F --out G --width W --height H\n"
                "       ielas-eval colour --disp D --out C.png [--colour-max N]\n"
-               "       ielas-eval gt-to-pfm --gt G [--gt-scale S] [--add K] --out F.pfm\n";
+               "       ielas-eval gt-to-pfm --gt G [--gt-scale S] [--add K] --out F.pfm\n"
+               "       ielas-eval size FILE\n";
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);  // errors are ours, one line each
   try {
     if (argc < 2) {
       usage();
@@ -473,13 +485,17 @@ int main(int argc, char** argv) {
     }
     if (command == "crop") return runCrop(parseArgs(argc, argv, 2, {"--in", "--out", "--width", "--height"}));
     if (command == "colour") return runColour(parseArgs(argc, argv, 2, {"--disp", "--out", "--colour-max"}));
+    if (command == "size") {
+      if (argc != 3) throw EvalError("size takes one file");
+      return runSize(argv[2]);
+    }
     if (command == "gt-to-pfm")
       return runGtToPfm(parseArgs(argc, argv, 2, {"--gt", "--gt-scale", "--add", "--out"}));
     if (command == "-h" || command == "--help") {
       usage();
       return 0;
     }
-    throw EvalError("unknown command " + command + " (score, header, crop, colour, gt-to-pfm)");
+    throw EvalError("unknown command " + command + " (score, header, crop, colour, gt-to-pfm, size)");
   } catch (const EvalError& e) {
     std::cerr << "ielas-eval: " << e.what() << std::endl;
     return 1;
