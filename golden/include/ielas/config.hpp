@@ -35,6 +35,9 @@ struct Config {
   int descriptorBytes = 16, descriptorMargin = 3, supportMargin = 5;
   int latticeColsMax = 0, latticeRowsMax = 0, gridColsMax = 0, gridRowsMax = 0;
   std::vector<int> priorTable;  // P[delta], delta = 0..dispMax
+  // Golden-model-only knob (optional JSON key): which grid candidates survive when a cell has more than
+  // storedDisparities. "smallest" (the default, docs/ALGORITHM.md) or "votes".
+  std::string gridKeep = "smallest";
 
   int windowRadius() const { return windowSize / 2; }
   // Lattice nodes along an axis of `pixels`: 0, step, 2 step, ... plus a last node at pixels-1 when off-step.
@@ -48,5 +51,24 @@ struct Config {
   }
   int gridCount(int pixels) const { return (pixels + gridSize - 1) / gridSize; }
 };
+
+// Loads a generator configuration: a name resolves to <dir>/<name>.json (dir = $IELAS_CONFIG_DIR, else ../configs
+// next to the executable, else the source tree's golden/configs); a path ending in .json is read directly.
+// Throws std::runtime_error with a one-line message on an unknown name, a malformed file or an illegal value.
+Config loadConfig(const std::string& nameOrFile);
+
+// The --preset configuration: the named configurations' hardware parameters (windowSize 5, storedDisparities 20,
+// candidateStep 5, gridSize 20, fill r7), libelas's values for `parameterSet` ("robotics" | "middlebury"),
+// maximum size = the given frame size, and a prior table computed here.
+Config presetConfig(const std::string& parameterSet, int dispMax, int width, int height);
+
+// P[delta] = trunc((ln gamma - ln(gamma + exp(-delta^2 / (2 sigma^2)))) / beta), delta = 0..dispMax (ELAS_SPEC §0).
+std::vector<int> computePriorTable(int dispMax, double gamma, double sigma, double beta);
+
+// Throws std::runtime_error naming the first illegal parameter (the same ranges as ElasParams).
+void validateConfig(const Config& cfg);
+
+// Recomputes the values derived from the card parameters (lattice/grid maxima, margins); keeps priorTable.
+void deriveConfig(Config& cfg);
 
 }  // namespace ielas

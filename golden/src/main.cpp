@@ -1,0 +1,165 @@
+// ielas-golden: the command line of INTERFACES.md §2 (match, dump).
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <map>
+#include <set>
+#include <stdexcept>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "ielas/config.hpp"
+#include "ielas/elas.hpp"
+#include "ielas/ielas.hpp"
+#include "ielas/image_io.hpp"
+
+using namespace ielas;
+
+namespace {
+
+const char* kUsage =
+    "usage: ielas-golden match --mode elas|ielas (--preset robotics|middlebury [--disp-max N] | --config NAME|FILE.json)\n"
+    "                          --left L --right R --out D.pfm|D.png [--interp paper|r7] [--sdelta PX] [--epsilon E]\n"
+    "                          [--fill-c C] [--grid-keep smallest|votes] [--time]\n"
+    "       ielas-golden dump  --mode ielas (--preset ... | --config ...) --left L --right R --out DIR [same options]\n";
+
+bool endsWith(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+
+int parseInt(const std::string& option, const std::string& text) {
+  size_t used = 0;
+  int v = 0;
+  try {
+    v = std::stoi(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty()) throw std::runtime_error(option + " needs an integer, got '" + text + "'");
+  return v;
+}
+
+struct Options {
+  std::string command;
+  std::map<std::string, std::string> values;
+  bool time = false;
+  bool has(const std::string& k) const { return values.count(k) != 0; }
+  const std::string& get(const std::string& k) const {
+    auto it = values.find(k);
+    if (it == values.end()) throw std::runtime_error("missing option " + k);
+    return it->second;
+  }
+};
+
+Options parseArgs(int argc, char** argv) {
+  static const std::set<std::string> withValue = {"--mode", "--preset", "--disp-max", "--config", "--left", "--right",
+                                                  "--out", "--interp", "--sdelta", "--epsilon", "--fill-c", "--grid-keep"};
+  if (argc < 2) throw std::runtime_error("missing command (match or dump); run ielas-golden --help");
+  Options o;
+  o.command = argv[1];
+  if (o.command != "match" && o.command != "dump")
+    throw std::runtime_error("unknown command '" + o.command + "' (legal: match, dump)");
+  for (int i = 2; i < argc; ++i) {
+    std::string a = argv[i];
+    if (a == "--time") {
+      o.time = true;
+    } else if (withValue.count(a)) {
+      if (i + 1 >= argc) throw std::runtime_error("option " + a + " needs a value");
+      if (o.values.count(a)) throw std::runtime_error("option " + a + " given twice");
+      o.values[a] = argv[++i];
+    } else {
+      throw std::runtime_error("unknown option '" + a + "'");
+    }
+  }
+  return o;
+}
+
+Config buildConfig(const Options& o, const cv::Mat& left) {
+  Config cfg;
+  if (o.has("--preset")) {
+    const std::string& set = o.get("--preset");
+    int dispMax = o.has("--disp-max") ? parseInt("--disp-max", o.get("--disp-max")) : 255;
+    cfg = presetConfig(set, dispMax, left.cols, left.rows);
+  } else {
+    cfg = loadConfig(o.get("--config"));
+  }
+  if (o.has("--interp")) {
+    const std::string& rule = o.get("--interp");
+    if (rule != "paper" && rule != "r7") throw std::runtime_error("unknown --interp '" + rule + "' (legal: paper, r7)");
+    cfg.fillRule = rule;
+  }
+  if (o.has("--sdelta")) cfg.sDelta = parseInt("--sdelta", o.get("--sdelta"));
+  if (o.has("--epsilon")) cfg.epsilon = parseInt("--epsilon", o.get("--epsilon"));
+  if (o.has("--fill-c")) cfg.fillC = parseInt("--fill-c", o.get("--fill-c"));
+  if (o.has("--grid-keep")) cfg.gridKeep = o.get("--grid-keep");
+  validateConfig(cfg);
+  return cfg;
+}
+
+void writeDisparity(const std::string& out, const cv::Mat& disparity) {
+  if (endsWith(out, ".pfm")) writePfm(out, disparity);
+  else writeKittiPng(out, disparity);
+}
+
+int run(int argc, char** argv) {
+  if (argc >= 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h" || std::string(argv[1]) == "help")) {
+    std::cout << kUsage;
+    return 0;
+  }
+  Options o = parseArgs(argc, argv);
+  const std::string& mode = o.get("--mode");
+  if (mode != "elas" && mode != "ielas") throw std::runtime_error("unknown --mode '" + mode + "' (legal: elas, ielas)");
+  if (o.command == "dump" && mode != "ielas") throw std::runtime_error("dump supports --mode ielas only");
+  if (o.has("--preset") == o.has("--config")) throw std::runtime_error("give exactly one of --preset and --config");
+  if (o.has("--disp-max") && !o.has("--preset")) throw std::runtime_error("--disp-max goes with --preset only");
+  const std::string& out = o.get("--out");
+  if (o.command == "match" && !endsWith(out, ".pfm") && !endsWith(out, ".png"))
+    throw std::runtime_error("--out must end in .pfm or .png");
+  if (o.has("--preset") && o.get("--preset") != "robotics" && o.get("--preset") != "middlebury")
+    throw std::runtime_error("unknown preset '" + o.get("--preset") + "' (legal: robotics, middlebury)");
+  // The configuration first (its errors do not depend on the images), except for --preset, which needs the size.
+  Config cfg;
+  if (o.has("--config")) cfg = loadConfig(o.get("--config"));
+  cv::Mat left = loadGray8(o.get("--left"));
+  cv::Mat right = loadGray8(o.get("--right"));
+  if (left.size() != right.size()) checkPairSize(left, right, 0, 0, "");
+  cfg = buildConfig(o, left);
+  checkPairSize(left, right, cfg.maxWidth, cfg.maxHeight, "configuration " + cfg.name);
+  cv::setNumThreads(1);  // single-threaded timings, like libelas
+
+  auto start = std::chrono::steady_clock::now();
+  cv::Mat disparity;
+  if (mode == "elas") {
+    disparity = elasMatch(left, right, cfg);
+  } else {
+    IelasFrame f = runIelas(left, right, cfg);
+    if (o.command == "dump") {
+      dumpIelas(f, out);
+      if (!f.lateError.empty()) std::cerr << "note: late stages skipped: " << f.lateError << "\n";
+      return 0;
+    }
+    if (!f.hasDisparity) throw std::runtime_error(f.lateError.empty() ? "not implemented yet" : f.lateError);
+    disparity = disparityToFloat(f.disparity);
+  }
+  auto stop = std::chrono::steady_clock::now();
+  if (o.time)
+    std::printf("time per frame: %.1f ms (%s, %dx%d)\n",
+                std::chrono::duration<double, std::milli>(stop - start).count(), mode.c_str(), left.cols, left.rows);
+  writeDisparity(out, disparity);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::string msg = e.what();
+    for (char& c : msg)
+      if (c == '\n') c = ' ';  // always exactly one line
+    std::cerr << "ielas-golden: error: " << msg << "\n";
+    return 1;
+  }
+}
