@@ -1,6 +1,6 @@
-// Stage `planes`: regular triangulation of the filled support lattice and fixed-point plane coefficients
-// for both views, plus the per-pixel rasteriser that the dense stage (and the hardware) evaluates.
-// Full rules: docs/ALGORITHM.md "## Late stages".
+// Stage `planes`: regular triangulation of the filled support lattice, fixed-point plane coefficients for both
+// views, and the per-row rasteriser that tells the dense stage (and the hardware) which plane owns each pixel.
+// Every rule (rounding, validity, coverage, uncovered right-view pixels) is in docs/ALGORITHM.md "## Late stages".
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -10,37 +10,40 @@
 
 namespace ielas {
 
-// Fractional bits of the plane coefficients: d(u,v) = (a*u + b*v + c) / 2^kPlaneFracBits.
+// Fractional bits of plane coefficients and values: d(u,v) = (c + a*(u-anchorU) + b*(v-anchorV)) / 2^16.
 constexpr int kPlaneFracBits = 16;
 
-// One triangle's plane in one view, in Q.kPlaneFracBits fixed point.
+// One triangle's plane in one view. The anchor is the triangle's bottom-left lattice vertex BL, shifted to
+// (x0 - d_BL, y1) in the right view; c = d_BL << 16 exactly, so the plane passes through BL without rounding.
 struct Plane {
-  int32_t a = 0, b = 0;   // d/du, d/dv (Q16)
-  int64_t c = 0;          // offset (Q16); int64 because a*u can be large before adding
-  bool valid = false;     // |a| < 0.7 in BOTH views (libelas rule), fixed point
+  int32_t a = 0, b = 0;         // d/du, d/dv in Q16 (roundDiv of exact rationals)
+  int32_t c = 0;                // value at the anchor, Q16
+  int32_t anchorU = 0, anchorV = 0;
+  bool valid = false;           // libelas |a| < 0.7 in BOTH views, decided exactly on integers
 };
 
-// Planes for both triangles of every lattice cell: (cellRows, cellCols, 2). Triangle 0 = (TL,TR,BL), 1 = (TR,BR,BL).
+// Triangle 0 = (TL,TR,BL), triangle 1 = (TR,BR,BL) of lattice cell (cr, cc); index (cr*cellCols + cc)*2 + t.
 struct Planes {
-  int W = 0, H = 0, step = 0;
+  int W = 0, H = 0;
   int cellRows = 0, cellCols = 0;
-  std::vector<Plane> left, right;  // index (cr * cellCols + cc) * 2 + t
-  cv::Mat lattice;                 // CV_16S Lh x Lw copy of the filled lattice (vertex disparities)
-  const Plane& at(View view, int cr, int cc, int t) const {
-    return (view == View::Left ? left : right)[(static_cast<size_t>(cr) * cellCols + cc) * 2 + t];
-  }
+  std::vector<int> cellX, cellY;   // pixel coordinate of lattice column/row k (size cellCols+1 / cellRows+1)
+  cv::Mat lattice;                 // CV_16S (cellRows+1) x (cellCols+1) vertex disparities
+  std::vector<Plane> left, right;
+  const std::vector<Plane>& view(View v) const { return v == View::Left ? left : right; }
 };
 
 Planes computePlanes(const cv::Mat& lattice, int W, int H, const Config& cfg);
 
-// planes_L/R.npy payload: shape (cellRows, cellCols, 2, 4) <i4, k = (a, b, c, valid); c saturated to int32.
+// planes_L/R.npy payload: shape (cellRows, cellCols, 2, 6) <i4, k = (a, b, c, anchorU, anchorV, valid).
 std::vector<int32_t> planesDump(const Planes& p, View view, std::vector<int>& shape);
 
-// Per-pixel plane lookup as the rasteriser defines it: the plane whose triangle owns pixel (u,v) in `view`,
-// or nullptr when no plane applies (then dense uses only grid candidates).
-const Plane* planeAt(const Planes& p, View view, int u, int v);
+// Owner of every pixel of image row v in `view`: owner[u] = triangle index into p.view(view) (always >= 0).
+void rasterRow(const Planes& p, View view, int v, std::vector<int>& owner);
 
-// Rounded plane value at (u,v): floor((a*u + b*v + c + 2^(f-1)) / 2^f).
+// Plane value rounded to an integer disparity: floor((Q16 value + 2^15) / 2^16). May lie outside 0..dispMax.
 int planeValue(const Plane& pl, int u, int v);
+
+// Exact rounded division floor((2n + d) / (2d)) (half up), d != 0. Shared with the tests.
+int64_t roundDiv(int64_t n, int64_t d);
 
 }  // namespace ielas
