@@ -18,8 +18,9 @@ object VerilogEmitter {
 
   def emitTop(p: ElasParams, dir: Path): Unit = {
     java.nio.file.Files.createDirectories(dir)
-    // emitSystemVerilogFile: emit()'s emitSystemVerilog rejects --target-dir in Chisel 6.7.
-    _root_.circt.stage.ChiselStage.emitSystemVerilogFile(new IElas(p), Array("--target-dir", dir.toString), firtoolOptions ++ Array("-o", dir.toString))
+    // Only firtool writes files (--split-verilog -o dir): emit()'s --target-dir is rejected by Chisel 6.7's
+    // emitSystemVerilog, and emitSystemVerilogFile would overwrite IElas.sv with the (empty) returned string.
+    _root_.circt.stage.ChiselStage.emitSystemVerilog(new IElas(p), Array.empty[String], firtoolOptions ++ Array("-o", dir.toString))
     // Verilator -Wall waivers for firtool's output, one reason each (INTERFACES.md §5).
     val waivers = Seq(
       "// firtool keeps the full width of sums whose low bits the Sobel's arithmetic >> 2 drops, and of column",
