@@ -123,7 +123,9 @@ int run(int argc, char** argv) {
   if (o.has("--config")) cfg = loadConfig(o.get("--config"));
   cv::Mat left = loadGray8(o.get("--left"));
   cv::Mat right = loadGray8(o.get("--right"));
-  if (left.size() != right.size()) checkPairSize(left, right, 0, 0, "");
+  // Mismatch and the 32x16 minimum first: --preset derives its maximum from the frame itself.
+  checkPairSize(left, right, o.has("--config") ? cfg.maxWidth : 8192, o.has("--config") ? cfg.maxHeight : 8192,
+                o.has("--config") ? "configuration " + cfg.name : "--preset");
   cfg = buildConfig(o, left);
   checkPairSize(left, right, cfg.maxWidth, cfg.maxHeight, "configuration " + cfg.name);
   cv::setNumThreads(1);  // single-threaded timings, like libelas

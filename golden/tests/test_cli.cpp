@@ -1,0 +1,144 @@
+// The command-line contract of INTERFACES.md §2-3: one-line errors with a non-zero exit, dump files, compare.
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "check.hpp"
+#include "ielas/npy.hpp"
+
+using namespace ielas;
+
+namespace {
+
+const std::string kTmp = std::string(IELAS_TEST_TMP_DIR) + "/cli";
+const std::string kBin = IELAS_GOLDEN_BIN;
+const std::string kCompare = std::string(IELAS_BIN_DIR) + "/ielas-compare";
+
+struct Result {
+  int exitCode;
+  std::string out, err;
+};
+
+std::string readAll(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+Result run(const std::string& cmd) {
+  const std::string o = kTmp + "/stdout.txt", e = kTmp + "/stderr.txt";
+  int status = std::system((cmd + " >" + o + " 2>" + e).c_str());
+  Result r{WIFEXITED(status) ? WEXITSTATUS(status) : 128, readAll(o), readAll(e)};
+  return r;
+}
+
+int lineCount(const std::string& s) {
+  int n = 0;
+  for (char c : s) n += c == '\n';
+  return n;
+}
+
+// An error: non-zero exit, exactly one line on stderr, holding `fragment`.
+void expectError(const std::string& args, const std::string& fragment) {
+  Result r = run(kBin + " " + args);
+  const bool ok = r.exitCode != 0 && lineCount(r.err) == 1 && r.err.find(fragment) != std::string::npos;
+  CHECK(ok);
+  if (!ok) std::cerr << "  args: " << args << "\n  exit " << r.exitCode << ", stderr: " << r.err << std::endl;
+}
+
+cv::Mat randomImage(int w, int h, int seed) {
+  cv::Mat m(h, w, CV_8U);
+  cv::RNG rng(seed);
+  rng.fill(m, cv::RNG::UNIFORM, 0, 256);
+  return m;
+}
+
+}  // namespace
+
+int main() {
+  mkdir(IELAS_TEST_TMP_DIR, 0777);
+  mkdir(kTmp.c_str(), 0777);
+  const std::string L = kTmp + "/left.png", R = kTmp + "/right.png";
+  cv::Mat left = randomImage(64, 32, 1);
+  cv::Mat right;
+  // Right view = left shifted by 4 px, so the pair has a real match.
+  cv::hconcat(left.colRange(4, 64), randomImage(4, 32, 2), right);
+  cv::imwrite(L, left);
+  cv::imwrite(R, right);
+  cv::imwrite(kTmp + "/wide.png", randomImage(65, 32, 3));
+  cv::imwrite(kTmp + "/small.png", randomImage(31, 16, 4));
+  cv::imwrite(kTmp + "/small_r.png", randomImage(31, 16, 5));
+  cv::imwrite(kTmp + "/big.png", randomImage(129, 64, 6));
+  cv::imwrite(kTmp + "/big_r.png", randomImage(129, 64, 7));
+  cv::Mat deep(32, 64, CV_16U, cv::Scalar(1000));
+  cv::imwrite(kTmp + "/deep.png", deep);
+  cv::Mat colour(32, 64, CV_8UC3, cv::Scalar(10, 20, 30));
+  cv::imwrite(kTmp + "/colour.png", colour);
+  { std::ofstream(kTmp + "/broken.json") << "{ \"name\": \"x\", "; }
+  { std::ofstream(kTmp + "/notimage.png") << "hello"; }
+
+  const std::string pair = " --left " + L + " --right " + R;
+  expectError("dump --mode ielas --config small --left " + kTmp + "/missing.png --right " + R + " --out " + kTmp + "/d",
+              "cannot read image");
+  expectError("dump --mode ielas --config small --left " + kTmp + "/notimage.png --right " + R + " --out " + kTmp + "/d",
+              "cannot read image");
+  expectError("dump --mode ielas --config small --left " + L + " --right " + kTmp + "/wide.png --out " + kTmp + "/d",
+              "size mismatch");
+  expectError("dump --mode ielas --config small --left " + kTmp + "/deep.png --right " + R + " --out " + kTmp + "/d",
+              "deeper than 8 bits");
+  expectError("dump --mode ielas --config small --left " + kTmp + "/big.png --right " + kTmp + "/big_r.png --out " +
+              kTmp + "/d", "outside 32x16..128x64");
+  expectError("dump --mode ielas --preset robotics --left " + kTmp + "/small.png --right " + kTmp + "/small_r.png --out " +
+              kTmp + "/d", "outside 32x16");
+  expectError("dump --mode ielas --preset indoor" + pair + " --out " + kTmp + "/d", "unknown preset");
+  expectError("dump --mode ielas --config nosuchconfig" + pair + " --out " + kTmp + "/d", "unknown configuration");
+  expectError("dump --mode ielas --config " + kTmp + "/broken.json" + pair + " --out " + kTmp + "/d", "malformed JSON");
+  expectError("dump --mode ielas --config small" + pair, "missing option --out");
+  expectError("dump --mode ielas --config small --bogus 1" + pair + " --out " + kTmp + "/d", "unknown option");
+  expectError("match --mode ielas --config small" + pair + " --out " + kTmp + "/x.txt", ".pfm or .png");
+  expectError("frobnicate", "unknown command");
+
+  // A good dump: the early-stage files with the documented shapes and dtypes.
+  Result ok = run(kBin + " dump --mode ielas --config small" + pair + " --out " + kTmp + "/dumpA");
+  CHECK_EQ(ok.exitCode, 0);
+  NpyArray desc = readNpy(kTmp + "/dumpA/descriptor_L.npy");
+  CHECK(desc.descr == "|u1");
+  CHECK(desc.shape == std::vector<int>({32, 64, 16}));
+  NpyArray sup = readNpy(kTmp + "/dumpA/support_L.npy");
+  CHECK(sup.descr == "<i2");
+  CHECK(sup.shape == std::vector<int>({8, 14}));  // 32 rows: 0..30 + 31; 64 cols: 0..60 + 63
+  NpyArray grid = readNpy(kTmp + "/dumpA/grid_R.npy");
+  CHECK(grid.shape == std::vector<int>({2, 4, 20}));
+  NpyArray lattice = readNpy(kTmp + "/dumpA/lattice_L.npy");
+  for (size_t i = 0; i < lattice.count(); ++i) CHECK(lattice.value(i) >= 0 && lattice.value(i) <= 31);
+  // A colour input is accepted (converted to grey).
+  CHECK_EQ(run(kBin + " dump --mode ielas --preset middlebury --disp-max 31 --left " + kTmp + "/colour.png --right " +
+               kTmp + "/colour.png --out " + kTmp + "/dumpC").exitCode, 0);
+
+  // compare: identical dumps pass; a changed value fails, names the file and index, and writes a diff image.
+  CHECK_EQ(run(kBin + " dump --mode ielas --config small" + pair + " --out " + kTmp + "/dumpB").exitCode, 0);
+  Result same = run(kCompare + " " + kTmp + "/dumpA " + kTmp + "/dumpB");
+  CHECK_EQ(same.exitCode, 0);
+  CHECK(same.out.find("compared") != std::string::npos);
+  std::vector<int16_t> sv(sup.count());
+  for (size_t i = 0; i < sv.size(); ++i) sv[i] = static_cast<int16_t>(sup.value(i));
+  sv[3 * 14 + 5] = static_cast<int16_t>(sv[3 * 14 + 5] + 7);
+  writeNpy(kTmp + "/dumpB/support_L.npy", "<i2", sup.shape, sv.data());
+  Result diff = run(kCompare + " " + kTmp + "/dumpA " + kTmp + "/dumpB");
+  CHECK(diff.exitCode != 0);
+  CHECK(diff.out.find("support_L.npy at (3, 5)") != std::string::npos);
+  CHECK(diff.out.find("1 mismatching values") != std::string::npos);
+  struct stat st;
+  CHECK(stat((kTmp + "/dumpA/diff_support_L.png").c_str(), &st) == 0);
+  mkdir((kTmp + "/empty").c_str(), 0777);
+  CHECK(run(kCompare + " " + kTmp + "/dumpA " + kTmp + "/empty").exitCode != 0);
+  return testExitCode("test_cli");
+}
