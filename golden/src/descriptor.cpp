@@ -48,7 +48,7 @@ cv::Mat computeDescriptor(const cv::Mat& image8, const Config& cfg) {
   const int m = r + 1;  // descriptor margin: the farthest gradient read is r away, and gradients need 1 more
   cv::Mat du, dv;
   sobel(image8, du, dv);
-  cv::Mat desc(H, W, CV_8UC(kDescriptorBytes), cv::Scalar::all(0));
+  cv::Mat desc = cv::Mat::zeros(H, W, CV_8UC(kDescriptorBytes));
   for (int y = m; y <= H - 1 - m; ++y) {
     const uint8_t* duUp2 = du.ptr<uint8_t>(y - r);
     const uint8_t* duUp = du.ptr<uint8_t>(y - 1);
