@@ -1,0 +1,127 @@
+package ielas
+
+import chisel3._
+import chisel3.util.DecoupledIO
+import chiseltest._
+import chiseltest.internal.CachingAnnotation
+import chiseltest.simulator.{VerilatorBackendAnnotation, WriteVcdAnnotation}
+import firrtl2.options.TargetDirAnnotation
+
+import java.nio.file.{Path, Paths}
+import scala.util.Random
+
+/** The one stream-driving helper of every stage test and simulation program. All simulator-specific code
+  * (chiseltest, Verilator, VCD, peek/poke) lives in this file, so a move to another simulator touches one file.
+  *
+  * A run is a single-threaded cycle loop (no fork): each cycle it offers the next input beat unless a seeded random
+  * gap says not to, drives the output ready from a seeded random back-pressure pattern, hands every output transfer
+  * to a sink, and fails when the cycle bound is exceeded.
+  */
+object StreamTester {
+  /** Input-gap and output-stall probabilities per cycle; both 0 = the no-stall mode of the throughput checks. */
+  case class Traffic(inputGap: Double, outputStall: Double) {
+    require(inputGap >= 0 && inputGap < 1 && outputStall >= 0 && outputStall < 1, s"traffic: bad probabilities $this")
+  }
+  val noStall: Traffic = Traffic(0.0, 0.0)
+  val choppy: Traffic = Traffic(0.3, 0.3)
+
+  /** The run's seed: -Dielas.seed=N, else $IELAS_SEED, else random; always printed so a failure can be replayed. */
+  lazy val seed: Long = {
+    val s = sys.props.get("ielas.seed").orElse(sys.env.get("IELAS_SEED")).map(_.trim.toLong).getOrElse(Random.nextLong())
+    println(s"StreamTester: seed $s (replay with -Dielas.seed=$s or IELAS_SEED=$s)")
+    s
+  }
+
+  /** VCD output on request: -Dielas.vcd=1 or IELAS_VCD=1. */
+  def vcd: Boolean = sys.props.get("ielas.vcd").orElse(sys.env.get("IELAS_VCD")).contains("1")
+
+  /** Elaborates `gen`, builds it with Verilator into `workDir` and runs `body` on it. With `cache`, an identical
+    * circuit reuses the Verilator build already in `workDir`.
+    */
+  def simulate[M <: Module](gen: => M, workDir: Path, cache: Boolean = false)(body: M => Unit): Unit = {
+    val relative = Paths.get("").toAbsolutePath.relativize(workDir.toAbsolutePath) // chiseltest wants it relative
+    val annos = Seq(VerilatorBackendAnnotation, TargetDirAnnotation(relative.toString)) ++
+      (if (vcd) Seq(WriteVcdAnnotation) else Nil) ++ (if (cache) Seq(CachingAnnotation) else Nil)
+    RawTester.test(gen, annos, workDir.getFileName.toString) { dut =>
+      dut.clock.setTimeout(0) // the cycle bound below replaces chiseltest's idle timeout
+      body(dut)
+    }
+  }
+
+  /** Plain port access for single signals (reset, configuration inputs, status outputs). */
+  def poke(port: UInt, value: BigInt): Unit = port.poke(value.U)
+  def poke(port: Bool, value: Boolean): Unit = port.poke(value.B)
+  def peek(port: UInt): BigInt = port.peek().litValue
+  def peek(port: Bool): Boolean = port.peek().litToBoolean
+  def step(clock: Clock, cycles: Int = 1): Unit = if (cycles > 0) clock.step(cycles)
+
+  /** Resets the module for a few cycles. */
+  def reset(dut: Module, cycles: Int = 2): Unit = {
+    dut.reset.poke(true.B); dut.clock.step(cycles); dut.reset.poke(false.B)
+  }
+
+  /** Streams `inputs` into `in` and hands the first `expectedOutputs` transfers of `out` to `sink` (in order, with
+    * their index). Returns the cycles from the first offered input to the last expected output transfer, inclusive.
+    * `pokeBeat` sets the input bits; `peekBeat` reads the output bits (called only on a transfer).
+    * Throws when `maxCycles` pass first.
+    */
+  def run[D <: Data, E <: Data, I, O](clock: Clock, in: DecoupledIO[D], inputs: Iterator[I], pokeBeat: (D, I) => Unit,
+      out: DecoupledIO[E], expectedOutputs: Long, peekBeat: E => O, sink: (Long, O) => Unit,
+      traffic: Traffic, rnd: Random, maxCycles: Long, what: String = "stream"): Long = {
+    var cycles = 0L
+    var received = 0L
+    var pending: Option[I] = None
+    var offered = false
+    while (received < expectedOutputs || pending.nonEmpty || inputs.hasNext) {
+      if (cycles >= maxCycles)
+        throw new AssertionError(s"$what: timeout after $cycles cycles with $received of $expectedOutputs outputs " +
+          s"(seed ${seed})")
+      if (pending.isEmpty && inputs.hasNext) pending = Some(inputs.next())
+      val offer = pending.nonEmpty && rnd.nextDouble() >= traffic.inputGap
+      if (offer) { pokeBeat(in.bits, pending.get); in.valid.poke(true.B); offered = true }
+      else in.valid.poke(false.B)
+      val ready = rnd.nextDouble() >= traffic.outputStall
+      out.ready.poke(ready.B)
+      if (offer && in.ready.peek().litToBoolean) pending = None
+      if (ready && out.valid.peek().litToBoolean) {
+        if (received < expectedOutputs) sink(received, peekBeat(out.bits))
+        else throw new AssertionError(s"$what: more than the $expectedOutputs expected outputs (seed $seed)")
+        received += 1
+      }
+      clock.step()
+      if (offered) cycles += 1
+    }
+    in.valid.poke(false.B)
+    out.ready.poke(false.B)
+    cycles
+  }
+
+  /** One output beat of the descriptor stream: both descriptors (byte k at bits 8k+7..8k) and the framing. */
+  case class DescriptorBeat(left: BigInt, right: BigInt, sof: Boolean, eol: Boolean, eof: Boolean)
+
+  /** Streams same-size frames back to back into the `IElas` top (frameWidth/frameHeight held at their size) and
+    * hands each output beat to `sink` with its flat index over all frames. Returns the cycle count of [[run]].
+    */
+  def streamDescriptorFrames(dut: IElas, frames: Seq[(GrayImage, GrayImage)], traffic: Traffic, rnd: Random,
+      sink: (Long, DescriptorBeat) => Unit, maxCycles: Long, what: String): Long = {
+    val (w, h) = (frames.head._1.width, frames.head._1.height)
+    require(frames.forall { case (l, r) => l.width == w && r.width == w && l.height == h && r.height == h },
+      s"$what: all frames of one run need the same size")
+    dut.io.frameWidth.poke(w.U)
+    dut.io.frameHeight.poke(h.U)
+    dut.io.clearError.poke(false.B)
+    val beats = frames.iterator.flatMap { case (l, r) =>
+      Iterator.range(0, w * h).map(i => (l.pixels(i) & 0xff, r.pixels(i) & 0xff, i == 0, i % w == w - 1))
+    }
+    run[PixelPair, Framed[DescriptorPair], (Int, Int, Boolean, Boolean), DescriptorBeat](
+      dut.clock, dut.io.in, beats,
+      (bits, b) => { bits.left.poke(b._1.U); bits.right.poke(b._2.U); bits.sof.poke(b._3.B); bits.eol.poke(b._4.B) },
+      dut.io.out, frames.length.toLong * w * h,
+      o => DescriptorBeat(o.data.left.peek().litValue, o.data.right.peek().litValue, o.sof.peek().litToBoolean,
+        o.eol.peek().litToBoolean, o.eof.peek().litToBoolean),
+      sink, traffic, rnd, maxCycles, what)
+  }
+
+  /** A scratch directory under build/test-tmp. */
+  def tmpDir(name: String): Path = Paths.get("build", "test-tmp", name).toAbsolutePath
+}
