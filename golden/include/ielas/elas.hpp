@@ -6,6 +6,9 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "ielas/config.hpp"
 #include "ielas/types.hpp"
@@ -19,6 +22,19 @@ cv::Mat elasMatch(const cv::Mat& left8, const cv::Mat& right8, const Config& cfg
 namespace elas {
 
 constexpr float kInvalid = -10.0f;  // libelas's value for "no disparity" after dense matching
+
+// SAD of two 16-byte descriptors, inline because the support and dense loops call it tens of millions of times.
+inline int sad16Inline(const uint8_t* a, const uint8_t* b) {
+#ifdef __SSE2__
+  const __m128i s = _mm_sad_epu8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(a)),
+                                 _mm_loadu_si128(reinterpret_cast<const __m128i*>(b)));
+  return _mm_cvtsi128_si32(s) + _mm_extract_epi16(s, 4);
+#else
+  int sum = 0;
+  for (int k = 0; k < 16; ++k) sum += a[k] > b[k] ? a[k] - b[k] : b[k] - a[k];
+  return sum;
+#endif
+}
 
 struct SupportPoint {
   int u, v, d;  // left-image pixel and disparity

@@ -56,7 +56,7 @@ void findMatch(const MatchContext& m, int u, int v, float a, float b, float c, b
     if (d >= lo && d <= hi) continue;
     const int uw = u + m.sign * d;
     if (uw < kDescriptorMargin || uw >= m.width - kDescriptorMargin) continue;
-    const int e = sad16(f, tgtRow + 16 * uw);
+    const int e = sad16Inline(f, tgtRow + 16 * uw);
     if (e < best) {
       best = e;
       bestD = d;
@@ -66,7 +66,7 @@ void findMatch(const MatchContext& m, int u, int v, float a, float b, float c, b
   for (int d = lo; d <= hi; ++d) {
     const int uw = u + m.sign * d;
     if (uw < kDescriptorMargin || uw >= m.width - kDescriptorMargin) continue;
-    const int e = sad16(f, tgtRow + 16 * uw) + (valid ? prior[std::abs(d - dPlane)] : 0);
+    const int e = sad16Inline(f, tgtRow + 16 * uw) + (valid ? prior[std::abs(d - dPlane)] : 0);
     if (e < best) {
       best = e;
       bestD = d;

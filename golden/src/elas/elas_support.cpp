@@ -39,8 +39,8 @@ int matchSupportPoint(const cv::Mat& descL, const cv::Mat& descR, int u, int v, 
   int bestE = 32767, bestD = -1, secondE = 32767, secondD = -1;
   for (int d = dLo; d <= dHi; ++d) {
     const int uw = ref == View::Left ? u - d : u + d;
-    const int cost = sad16(r1, tgtRowTop + 16 * (uw - kCornerStep)) + sad16(r2, tgtRowTop + 16 * (uw + kCornerStep)) +
-                     sad16(r3, tgtRowBot + 16 * (uw - kCornerStep)) + sad16(r4, tgtRowBot + 16 * (uw + kCornerStep));
+    const int cost = sad16Inline(r1, tgtRowTop + 16 * (uw - kCornerStep)) + sad16Inline(r2, tgtRowTop + 16 * (uw + kCornerStep)) +
+                     sad16Inline(r3, tgtRowBot + 16 * (uw - kCornerStep)) + sad16Inline(r4, tgtRowBot + 16 * (uw + kCornerStep));
     if (cost < bestE) {
       secondE = bestE;
       secondD = bestD;
