@@ -167,6 +167,19 @@ def generate(runs, eval_dir):
                      % (preset, label, " | ".join("%.2f" % v for v in numbers), sum(numbers) / 4))
     lines.append("")
 
+    shown = {(f, r) for f, r, _ in GOALS + OTHERS}
+    extra = [(name, key, m) for name, (families, _) in runs for key, m in sorted(families.items()) if key not in shown]
+    if extra:
+        lines.append("## Further families and regions per run (bad-3 %, invalid counted bad)")
+        lines.append("")
+        lines.append("`-crop` families are the centred 640x480 crops scored for 640x480 configurations.")
+        lines.append("")
+        lines.append("| run | family | region | bad-3 | density |")
+        lines.append("|---|---|---|---|---|")
+        for name, key, m in extra:
+            lines.append("| `%s` | %s | %s | %.2f | %.2f |" % (name, key[0], key[1], m["bad3"], m["density"]))
+        lines.append("")
+
     lines.append("## More metrics per run (goal families)")
     lines.append("")
     lines.append("density % / bad-3 over valid predictions / bad-3 after the KITTI background fill / D1 / EPE px / rel %.")
