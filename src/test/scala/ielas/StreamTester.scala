@@ -52,6 +52,7 @@ object StreamTester {
   def poke(port: UInt, value: BigInt): Unit = port.poke(value.U)
   def poke(port: Bool, value: Boolean): Unit = port.poke(value.B)
   def peek(port: UInt): BigInt = port.peek().litValue
+  def peek(port: SInt): BigInt = port.peek().litValue
   def peek(port: Bool): Boolean = port.peek().litToBoolean
   def step(clock: Clock, cycles: Int = 1): Unit = if (cycles > 0) clock.step(cycles)
 

@@ -10,7 +10,7 @@ import scala.util.Random
   * Every value it writes comes out of the simulated hardware: it never calls the golden model.
   */
 object Simulate {
-  val stages: Seq[String] = Seq("descriptor")
+  val stages: Seq[String] = Seq("descriptor", "support")
 
   def main(args: Array[String]): Unit = Cli.exitOnError("simulate") {
     val opts = Cli.parse(args, Set("--config", "--stage", "--left", "--right", "--out"),
@@ -21,12 +21,17 @@ object Simulate {
       throw new IllegalArgumentException(s"stage '$stage' is not implemented yet (built so far: ${stages.mkString(", ")})")
     val (left, right) = Cli.readPair(p, Paths.get(opts("--left")), Paths.get(opts("--right")))
     val out = Paths.get(opts("--out"))
-    val result = DescriptorRun.run(p, left, right)
     Files.createDirectories(out)
-    result.writeDump(out)
-    Files.write(out.resolve("cycles.txt"), s"${result.cycles}\n".getBytes)
-    println(s"cycles: ${result.cycles}")
-    println(s"wrote ${out.resolve("descriptor_L.npy")}, ${out.resolve("descriptor_R.npy")}, ${out.resolve("cycles.txt")}")
+    val (cycles, files) = stage match {
+      case "support" => (SupportRun.run(p, left, right, out), Seq("support_L.npy"))
+      case _ =>
+        val result = DescriptorRun.run(p, left, right)
+        result.writeDump(out)
+        (result.cycles, Seq("descriptor_L.npy", "descriptor_R.npy"))
+    }
+    Files.write(out.resolve("cycles.txt"), s"$cycles\n".getBytes)
+    println(s"cycles: $cycles")
+    println(s"wrote ${(files :+ "cycles.txt").map(out.resolve(_)).mkString(", ")}")
   }
 }
 

@@ -1,0 +1,363 @@
+package ielas
+
+import chisel3._
+import chisel3.util._
+
+/** Stage `support`: ratio-tested support matches on the candidate lattice plus the left/right check
+  * (docs/ALGORITHM.md / PINNED 3), streaming.
+  *
+  * Input: the [[Descriptor]] stream (raster order, both views' descriptors per pixel, framing). Output: support_L in
+  * lattice raster order, every node (Lh x Lw values, -1 = none), with sof / eol (last node of a lattice row) / eof.
+  * frameWidth / frameHeight are sampled at the descriptor stream's start of frame, so the top must hold them from
+  * the pixel start of frame until at least descriptorMargin rows later (video IP holds them for the whole frame).
+  *
+  * Buffers. A lattice row at pixel row v reads only descriptor rows v - r and v + r (the four window corners of
+  * both the reference and the target) and the texture test of row v. The capture side therefore keeps, for each of
+  * `slots` lattice rows, the two descriptor rows of both views (128 bits per pixel) and one texture bit per pixel
+  * and view. The descriptor rows are split into `banks` column-interleaved memories (bank = x mod banks) so one
+  * cycle reads `banks` consecutive columns: the L lanes of a sweep need target columns t - r .. t + r of L
+  * consecutive disparities, i.e. L + 2r consecutive columns.
+  *   descriptor buffer bits = 2 rows x 2 views x slots x banks x ceil(maxWidth / banks) x 128
+  *   texture buffer bits    = slots x maxWidth x 2
+  * (kitti: slots 2, banks 32 -> 1,277,952 + 4,968 bits). slots = the smallest K with (K-1)*step >= 2r + 1: the top
+  * row of lattice row j + K is written only after lattice row j is finished, which at 1 pixel per clock leaves
+  * step pixel rows for the search of lattice row j. Nothing grows with the image height.
+  *
+  * Search (per active node, one sweep per reference view): L lanes evaluate disparities base .. base + L - 1 per
+  * cycle; a sweep takes ceil((dhi + 1) / L) cycles, and a node costs nL + nR + 3 cycles (node start, one drain
+  * cycle after each sweep whose decision is combinational on the merged best/second best), at most
+  * 2 * ceil((dispMax + 1) / L) + [[ElasParams.supportOverheadCycles]] = the budget of ElasParams.supportLanesUsed.
+  * Best/second best are merged over lanes in ascending d with strict "<" on the left operand, which equals the
+  * sequential definition (E1 min, d1 its smallest d, E2 the second smallest of the multiset).
+  *
+  * Back-pressure: the input stalls only when a slot is still being searched (or a new frame arrives while the
+  * previous one is still being searched); the output register stalls the walker. Any gaps are fine.
+  * A start of frame in the middle of a frame is treated as an ordinary pixel (the top's framing check handles it).
+  */
+class SupportMatcher(p: ElasParams) extends Module {
+  private val r = p.windowRadius
+  private val step = p.candidateStep
+  private val margin = p.supportMargin
+  private val lanes = p.supportLanesUsed
+  private val banks = SupportMatcher.banks(p)
+  private val bankBits = log2Ceil(banks)
+  private val slots = SupportMatcher.slots(p)
+  private val slotBits = math.max(1, log2Ceil(slots))
+  private val wordsPerRow = SupportMatcher.wordsPerRow(p)
+  private val descBits = 8 * p.descriptorBytes
+  private val costBits = SupportMatcher.costBits(p)
+  private val costInf = ((1 << costBits) - 1).U(costBits.W) // above every real cost
+  private val colW = math.max(p.colBits, p.dispBits + 1) + 2 // signed column arithmetic (window starts may be < 0)
+  private val rowW = p.rowBits + 1
+  private val baseW = p.dispBits + 2
+  private val firstRow = (margin + step - 1) / step * step // first lattice row that can hold supports
+
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(new Framed(new DescriptorPair(p.descriptorBytes))))
+    val frameWidth = Input(UInt(p.colBits.W))
+    val frameHeight = Input(UInt(p.rowBits.W))
+    val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
+  })
+
+  // ---- frame state ----
+  val width = RegInit(0.U(p.colBits.W))
+  val height = RegInit(0.U(p.rowBits.W))
+  val capBusy = RegInit(false.B) //  descriptors of a frame are still expected
+  val walkBusy = RegInit(false.B) // lattice nodes of a frame are still to be emitted
+
+  // ---- walker position (declared early: the capture side checks slot reuse against it) ----
+  val walkU = RegInit(0.U(p.colBits.W)) // pixel column of the current node (min(i*step, W-1))
+  val walkV = RegInit(0.U(p.rowBits.W)) // pixel row of the current lattice row
+  val walkSlot = RegInit(0.U(slotBits.W))
+
+  // ---- capture: write the rows lattice rows need into their slot ----
+  val capX = RegInit(0.U(p.colBits.W))
+  val capY = RegInit(0.U(p.rowBits.W))
+
+  /** The next lattice row (its pixel row v and slot) that still needs the pixel row v + offset. */
+  class RowTracker(offset: Int) {
+    val v = RegInit(firstRow.U(rowW.W))
+    val slot = RegInit((firstRow / step % slots).U(slotBits.W))
+    val hit: Bool = (capY.zext +& offset.S) === v.zext && v +& margin.U < height // only rows that hold supports
+    def restart(): Unit = { v := firstRow.U; slot := (firstRow / step % slots).U }
+    def advance(): Unit = { v := v + step.U; slot := Mux(slot === (slots - 1).U, 0.U, slot + 1.U) }
+    def rowIs: Bool = (capY.zext +& offset.S) === v.zext
+  }
+  val topRow = new RowTracker(r)
+  val centreRow = new RowTracker(0)
+  val bottomRow = new RowTracker(-r)
+
+  // The slot of lattice row v is free once the walker has left lattice row v - slots*step.
+  val topSlotFree = walkV +& (slots * step).U > topRow.v
+  val startFrame = io.in.valid && io.in.bits.sof && !capBusy && !walkBusy
+  io.in.ready := Mux(capBusy, !topRow.hit || topSlotFree, !io.in.bits.sof || !walkBusy)
+  val capture = io.in.fire && capBusy
+
+  when(startFrame) {
+    width := io.frameWidth
+    height := io.frameHeight
+    capBusy := true.B
+    walkBusy := true.B
+    // the start-of-frame beat is pixel (0, 0): no lattice row needs pixel row 0, so only the counters move
+    capX := 1.U
+    capY := 0.U
+    Seq(topRow, centreRow, bottomRow).foreach(_.restart())
+  }
+  val endOfLine = capX === width - 1.U
+  when(capture) {
+    capX := Mux(endOfLine, 0.U, capX + 1.U)
+    when(endOfLine) {
+      capY := capY + 1.U
+      when(capY === height - 1.U) { capBusy := false.B }
+      Seq(topRow, centreRow, bottomRow).foreach(t => when(t.rowIs) { t.advance() })
+    }
+  }
+
+  def slotBase(slot: UInt, perSlot: Int): UInt =
+    VecInit((0 until slots).map(s => (s * perSlot).U(log2Ceil(slots * perSlot + 1).W)))(slot)
+
+  /** Memory addresses: slot * words + word, cut to the address width (word < words always holds). */
+  def rowAddress(slot: UInt, word: UInt): UInt =
+    (slotBase(slot, wordsPerRow) +& word)(log2Ceil(slots * wordsPerRow) - 1, 0)
+  def texAddress(slot: UInt, col: UInt): UInt =
+    (slotBase(slot, p.maxWidth) +& col)(log2Ceil(slots * p.maxWidth) - 1, 0)
+
+  /** Descriptor row memories: (row kind 0 = v - r, 1 = v + r)(view 0 = left, 1 = right)(bank). */
+  val rowMem = Seq.fill(2, 2, banks)(SyncReadMem(slots * wordsPerRow, UInt(descBits.W)))
+  val texMem = SyncReadMem(slots * p.maxWidth, UInt(2.W)) // bit 0 left, bit 1 right: texture >= supportTexture
+
+  val capBank = capX(bankBits - 1, 0)
+  val capWord = capX >> bankBits
+  for ((tracker, kind) <- Seq(topRow, bottomRow).zipWithIndex; view <- 0 until 2; b <- 0 until banks) {
+    when(capture && tracker.hit && capBank === b.U) {
+      val data = if (view == 0) io.in.bits.data.left else io.in.bits.data.right
+      rowMem(kind)(view)(b).write(rowAddress(tracker.slot, capWord), data)
+    }
+  }
+  when(capture && centreRow.hit) {
+    val tex = Cat(SupportMatcher.texture(io.in.bits.data.right) >= p.supportTexture.U,
+      SupportMatcher.texture(io.in.bits.data.left) >= p.supportTexture.U)
+    texMem.write(texAddress(centreRow.slot, capX), tex)
+  }
+
+  // ---- walker: every lattice node in raster order ----
+  val sIdle :: sNode :: sSweep :: sDecide :: Nil = Enum(4)
+  val state = RegInit(sIdle)
+  val phaseLeft = RegInit(true.B) // sweeping with the left view as reference
+  val base = RegInit(0.U(baseW.W))
+  val dhi = RegInit(0.U(p.dispBits.W))
+  val uRef = RegInit(0.U(p.colBits.W)) // reference column of the current sweep
+  val dLeft = RegInit(0.U(p.dispBits.W))
+
+  val rowActive = walkV >= margin.U && walkV +& margin.U < height
+  val nodeActive = rowActive && walkU >= margin.U && walkU +& margin.U < width
+  val rowReady = !rowActive || bottomRow.v > walkV // both descriptor rows of this lattice row are in
+
+  // window reads: every bank reads the column of its residue in [start, start + banks)
+  def readWindow(view: Int, start: SInt): (Seq[Seq[UInt]], UInt) = {
+    val startLow = start.asUInt(bankBits - 1, 0)
+    val data = (0 until 2).map { kind =>
+      (0 until banks).map { b =>
+        val col = start +& (b.U(bankBits.W) - startLow)(bankBits - 1, 0).zext
+        val word = (col >> bankBits).asUInt
+        val wordOk = col >= 0.S && word < wordsPerRow.U
+        rowMem(kind)(view)(b).read(rowAddress(walkSlot, Mux(wordOk, word, 0.U)))
+      }
+    }
+    (data, RegNext(startLow))
+  }
+  /** Column k of a window read last cycle. */
+  def windowColumn(data: Seq[UInt], startLow: UInt, k: Int): UInt = VecInit(data)((startLow + k.U)(bankBits - 1, 0))
+
+  val uRefS = uRef.zext.pad(colW)
+  val baseS = base.zext.pad(colW)
+  val leftStart = Mux(phaseLeft, uRefS - r.S, uRefS + baseS - r.S)
+  val rightStart = Mux(phaseLeft, uRefS - baseS - (lanes - 1 + r).S, uRefS - r.S)
+  val (leftData, leftLow) = readWindow(0, leftStart)
+  val (rightData, rightLow) = readWindow(1, rightStart)
+  val texBits = texMem.read(texAddress(walkSlot, uRef))
+
+  // ---- s1: costs of the chunk issued last cycle, merged into the running best / second best ----
+  val issue = state === sSweep
+  val s1Valid = RegNext(issue, false.B)
+  val s1Left = RegNext(phaseLeft)
+  val s1Base = RegNext(base)
+  val s1Dhi = RegNext(dhi)
+  val s1First = RegNext(base === 0.U)
+
+  class Best extends Bundle {
+    val e1 = UInt(costBits.W)
+    val d1 = UInt(baseW.W)
+    val e2 = UInt(costBits.W)
+  }
+  def best(e1: UInt, d1: UInt, e2: UInt): Best = {
+    val b = Wire(new Best); b.e1 := e1; b.d1 := d1; b.e2 := e2; b
+  }
+  /** `a` covers smaller disparities than `b`: a strict "<" keeps a's d on ties, and a tie makes E2 = E1. */
+  def merge(a: Best, b: Best): Best = {
+    val bWins = b.e1 < a.e1
+    best(Mux(bWins, b.e1, a.e1), Mux(bWins, b.d1, a.d1),
+      Mux(bWins, SupportMatcher.min(a.e1, b.e2), SupportMatcher.min(a.e2, b.e1)))
+  }
+  def tree(xs: Seq[Best]): Best = if (xs.length == 1) xs.head else {
+    val (lo, hi) = xs.splitAt(xs.length / 2)
+    merge(tree(lo), tree(hi))
+  }
+
+  val laneBest = (0 until lanes).map { k =>
+    val cost = (0 until 2).map { kind =>
+      def ref(k2: Int) = Mux(s1Left, windowColumn(leftData(kind), leftLow, k2), windowColumn(rightData(kind), rightLow, k2))
+      // left reference: target window starts at column u - base - (L-1) - r, so lane k's t - r is at L-1-k
+      def tgt(k2L: Int, k2R: Int) =
+        Mux(s1Left, windowColumn(rightData(kind), rightLow, k2L), windowColumn(leftData(kind), leftLow, k2R))
+      SupportMatcher.sad(ref(0), tgt(lanes - 1 - k, k)) +& SupportMatcher.sad(ref(2 * r), tgt(lanes - 1 - k + 2 * r, k + 2 * r))
+    }.reduce(_ +& _)
+    val d = s1Base + k.U
+    best(Mux(d <= s1Dhi, cost, costInf), d, costInf)
+  }
+  val running = Reg(new Best)
+  val merged = Mux(s1First, tree(laneBest), merge(running, tree(laneBest)))
+  when(s1Valid) { running := merged }
+  val final_ = Mux(s1Valid, merged, running)
+
+  // ---- output register ----
+  val outValid = RegInit(false.B)
+  val outBits = Reg(new Framed(SInt((p.dispBits + 1).W)))
+  val outFree = !outValid || io.out.ready
+  when(io.out.fire) { outValid := false.B }
+  io.out.valid := outValid
+  io.out.bits := outBits
+
+  /** Emits the current node (when the output register is free) and moves to the next one. */
+  def emit(value: SInt): Unit = when(outFree) {
+    val eol = walkU === width - 1.U
+    val eof = eol && walkV === height - 1.U
+    outValid := true.B
+    outBits.data := value
+    outBits.sof := walkU === 0.U && walkV === 0.U
+    outBits.eol := eol
+    outBits.eof := eof
+    state := sNode
+    when(eol) {
+      walkU := 0.U
+      walkV := Mux(walkV +& step.U < height, walkV + step.U, height - 1.U)
+      walkSlot := Mux(walkSlot === (slots - 1).U, 0.U, walkSlot + 1.U)
+      when(eof) { state := sIdle; walkBusy := false.B }
+    }.otherwise {
+      walkU := Mux(walkU +& step.U < width, walkU + step.U, width - 1.U)
+    }
+  }
+  val none = (-1).S((p.dispBits + 1).W)
+  def dispMin(a: UInt): UInt = Mux(a > p.dispMax.U, p.dispMax.U, a)
+
+  switch(state) {
+    is(sIdle) {
+      when(startFrame) {
+        walkU := 0.U; walkV := 0.U; walkSlot := 0.U
+        state := sNode
+      }
+    }
+    is(sNode) {
+      val dhiL = dispMin(walkU - margin.U)
+      when(!nodeActive || dhiL < p.supportMinRange.U) {
+        when(rowReady) { emit(none) }
+      }.elsewhen(rowReady) {
+        phaseLeft := true.B; base := 0.U; dhi := dhiL; uRef := walkU
+        state := sSweep
+      }
+    }
+    is(sSweep) {
+      base := base + lanes.U
+      when(base +& lanes.U > dhi) { state := sDecide }
+    }
+    is(sDecide) {
+      val texOk = Mux(phaseLeft, texBits(0), texBits(1))
+      val accept = texOk && (final_.e1 * 100.U) < (final_.e2 * p.supportThresholdPercent.U)
+      val d1 = final_.d1(p.dispBits - 1, 0)
+      when(phaseLeft) {
+        val uRight = uRef - d1
+        val dhiR = dispMin(width - (1 + margin).U - uRight)
+        when(!accept || dhiR < p.supportMinRange.U) {
+          emit(none)
+        }.otherwise {
+          dLeft := d1; uRef := uRight; dhi := dhiR; base := 0.U; phaseLeft := false.B
+          state := sSweep
+        }
+      }.otherwise {
+        val diff = Mux(dLeft > d1, dLeft - d1, d1 - dLeft)
+        emit(Mux(accept && diff <= p.lrThreshold.U, dLeft.zext, none))
+      }
+    }
+  }
+}
+
+object SupportMatcher {
+  /** Lattice rows whose descriptor rows are buffered at once (see the class doc). */
+  def slots(p: ElasParams): Int = (2 to 64).find(k => (k - 1) * p.candidateStep >= 2 * p.windowRadius + 1).get
+
+  /** Column-interleaved banks: a power of two covering the L + 2r columns of one sweep cycle. */
+  def banks(p: ElasParams): Int = 1 << log2Ceil(p.supportLanesUsed + 2 * p.windowRadius)
+
+  def wordsPerRow(p: ElasParams): Int = (p.maxWidth + banks(p) - 1) / banks(p)
+
+  /** Bits of a cost: 4 descriptors x 16 bytes x 255, plus room for the "no disparity" value above it. */
+  def costBits(p: ElasParams): Int = log2Ceil(4 * p.descriptorBytes * 255 + 2)
+
+  /** Cycles of the search for one active node with left/right ranges dhiL/dhiR (the hardware's schedule). */
+  def nodeCycles(p: ElasParams, dhiL: Int, dhiR: Int): Int =
+    1 + (dhiL / p.supportLanesUsed + 1) + 1 + (dhiR / p.supportLanesUsed + 1) + 1
+
+  /** Rows of latency behind the descriptor stream: the search of the last lattice row may take step rows. */
+  def latencyRows(p: ElasParams): Int = p.candidateStep
+
+  def min(a: UInt, b: UInt): UInt = Mux(a < b, a, b)
+
+  /** Balanced adder tree (sums widen by one bit per level). */
+  def sumTree(xs: Seq[UInt]): UInt = if (xs.length == 1) xs.head else {
+    val (lo, hi) = xs.splitAt(xs.length / 2)
+    sumTree(lo) +& sumTree(hi)
+  }
+
+  /** Sum of |a_k - b_k| over the bytes of two descriptors. */
+  def sad(a: UInt, b: UInt): UInt = {
+    val n = a.getWidth / 8
+    sumTree((0 until n).map { k =>
+      val (x, y) = (a(8 * k + 7, 8 * k), b(8 * k + 7, 8 * k))
+      Mux(x > y, x - y, y - x)
+    })
+  }
+
+  /** texture = sum_k |byte_k - 128|. */
+  def texture(a: UInt): UInt = {
+    val n = a.getWidth / 8
+    sumTree((0 until n).map { k =>
+      val x = a(8 * k + 7, 8 * k)
+      Mux(x >= 128.U, x - 128.U, 128.U - x)
+    })
+  }
+
+  def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
+    MemoryUse("Support", "rows", slots(p) * wordsPerRow(p), 2 * 2 * banks(p) * 8 * p.descriptorBytes,
+      s"${slots(p)} slots x rows v-r, v+r x 2 views, ${banks(p)} banks of SyncReadMem 1R1W"),
+    MemoryUse("Support", "texture", slots(p) * p.maxWidth, 2, s"${slots(p)} slots x 2 views, SyncReadMem 1R1W")
+  )
+}
+
+/** Stage-test chain: pixel input -> [[Descriptor]] -> [[SupportMatcher]] (frame size ports shared by both). */
+class SupportChain(p: ElasParams) extends Module {
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(new PixelPair))
+    val frameWidth = Input(UInt(p.colBits.W))
+    val frameHeight = Input(UInt(p.rowBits.W))
+    val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
+  })
+  val descriptor = Module(new Descriptor(p))
+  val matcher = Module(new SupportMatcher(p))
+  descriptor.io.in <> io.in
+  descriptor.io.frameWidth := io.frameWidth
+  descriptor.io.frameHeight := io.frameHeight
+  matcher.io.in <> descriptor.io.out
+  matcher.io.frameWidth := io.frameWidth
+  matcher.io.frameHeight := io.frameHeight
+  io.out <> matcher.io.out
+}

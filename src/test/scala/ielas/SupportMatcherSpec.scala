@@ -1,0 +1,170 @@
+package ielas
+
+import org.scalatest.flatspec.AnyFlatSpec
+
+import java.nio.file.Path
+import scala.util.Random
+
+/** Stage `support` (Descriptor -> SupportMatcher) against the golden support_L.npy: one Verilator build at config
+  * `small` streams real crops and seeded random pairs under random input gaps and output back-pressure, checks
+  * every lattice value and the framing, then a throughput bound with no stalls and two frames back to back.
+  */
+class SupportMatcherSpec extends AnyFlatSpec {
+  import SupportMatcherSpec._
+
+  behavior of "SupportMatcher (Descriptor -> SupportMatcher chain)"
+
+  it should "match the golden support lattice at config small, with the throughput bound" in {
+    runSuite("small")
+  }
+}
+
+object SupportMatcherSpec {
+  import StreamTester._
+
+  case class Case(label: String, left: GrayImage, right: GrayImage)
+
+  /** One output beat of the support stream. */
+  case class SupportBeat(value: Int, sof: Boolean, eol: Boolean, eof: Boolean)
+
+  /** Left texture; the right view is the left shifted by `shift` columns, so most nodes find support `shift`. */
+  def shiftedPair(w: Int, h: Int, shift: Int, rnd: Random): Case = {
+    val wide = TestImages.noise(w + shift, h, rnd)
+    Case(s"shifted texture ${w}x$h by $shift", wide.crop(shift, 0, w, h), wide.crop(0, 0, w, h))
+  }
+
+  def cases(rnd: Random): Seq[Case] = {
+    val (kl, kr) = TestImages.kitti2012
+    val (tl, tr) = TestImages.middleburyTsukuba
+    val (cl, cr) = TestImages.middleburyCones
+    def flat(w: Int, h: Int) = { val v = rnd.nextInt(256); Case(s"flat $v ${w}x$h", TestImages.flat(w, h, v), TestImages.flat(w, h, v)) }
+    def noise(w: Int, h: Int) = Case(s"noise ${w}x$h", TestImages.noise(w, h, rnd), TestImages.noise(w, h, rnd))
+    Seq(
+      Case("KITTI 2012 000070 crop 128x64 at (600,150)", kl.crop(600, 150, 128, 64), kr.crop(600, 150, 128, 64)),
+      Case("Middlebury tsukuba crop 128x64 at (120,110)", tl.crop(120, 110, 128, 64), tr.crop(120, 110, 128, 64)),
+      Case("Middlebury cones crop 111x57 at (200,150)", cl.crop(200, 150, 111, 57), cr.crop(200, 150, 111, 57)),
+      shiftedPair(128, 64, 9, rnd), shiftedPair(97, 41, 20, rnd), shiftedPair(32, 16, 3, rnd),
+      noise(128, 64), noise(33, 17), flat(40, 20))
+  }
+
+  /** Expected lattice of a pair from the golden model's dump. */
+  def golden(p: ElasParams, c: Case, dir: Path): NpyArray = {
+    GoldenModel.dump(p.name, c.left, c.right, dir)
+    val a = NpyArray.read(dir.resolve("support_L.npy"))
+    val shape = Seq(p.latticeCount(c.left.height), p.latticeCount(c.left.width))
+    require(a.dtype == "<i2" && a.shape == shape, s"golden: support_L.npy has ${a.dtype} ${a.shape}, expected <i2 $shape")
+    a
+  }
+
+  /** Checks lattice values and framing of frames of one size following each other. */
+  class SupportScoreboard(expected: NpyArray, label: String) {
+    val board = new Scoreboard(s"support [$label]")
+    private val (lh, lw) = (expected.shape(0), expected.shape(1))
+    def check(index: Long, beat: SupportBeat): Unit = {
+      val node = index % (lh.toLong * lw)
+      val (j, i) = ((node / lw).toInt, (node % lw).toInt)
+      def at = s"frame ${index / (lh.toLong * lw)} lattice (row $j, col $i)"
+      board.check(s"$at value", expected(node), beat.value)
+      board.check(s"$at sof", if (node == 0) 1 else 0, if (beat.sof) 1 else 0)
+      board.check(s"$at eol", if (i == lw - 1) 1 else 0, if (beat.eol) 1 else 0)
+      board.check(s"$at eof", if (node == lh.toLong * lw - 1) 1 else 0, if (beat.eof) 1 else 0)
+    }
+    def supports: Long = (0L until expected.count).count(expected(_) >= 0).toLong
+  }
+
+  /** Streams same-size frames through the chain and hands every lattice output to `sink`; returns the cycles. */
+  def streamFrames(dut: SupportChain, p: ElasParams, frames: Seq[(GrayImage, GrayImage)], traffic: Traffic, rnd: Random,
+      sink: (Long, SupportBeat) => Unit, maxCycles: Long, what: String): Long = {
+    val (w, h) = (frames.head._1.width, frames.head._1.height)
+    poke(dut.io.frameWidth, w)
+    poke(dut.io.frameHeight, h)
+    val beats = frames.iterator.flatMap { case (l, r) =>
+      Iterator.range(0, w * h).map(i => (l.pixels(i) & 0xff, r.pixels(i) & 0xff, i == 0, i % w == w - 1))
+    }
+    val outputs = frames.length.toLong * p.latticeCount(w) * p.latticeCount(h)
+    run[PixelPair, Framed[chisel3.SInt], (Int, Int, Boolean, Boolean), SupportBeat](dut.clock, dut.io.in, beats,
+      (bits, b) => { poke(bits.left, b._1); poke(bits.right, b._2); poke(bits.sof, b._3); poke(bits.eol, b._4) },
+      dut.io.out, outputs,
+      o => SupportBeat(peek(o.data).toInt, peek(o.sof), peek(o.eol), peek(o.eof)),
+      sink, traffic, rnd, maxCycles, what)
+  }
+
+  /** Every transfer may wait on both a gap and a stall, and the search adds step rows. */
+  def choppyBound(p: ElasParams, w: Int, h: Int, frames: Int = 1): Long =
+    20L * (frames * (w * h + (p.descriptorMargin + p.candidateStep + 1) * w)) + 10000
+
+  /** The no-stall bound: N + latencyRows * W + c, latencyRows = descriptor rows + search rows. */
+  def throughputBound(p: ElasParams, w: Int, h: Int): (Long, String) = {
+    val rows = Descriptor.latencyRows(p) + SupportMatcher.latencyRows(p)
+    val c = Descriptor.cycleSlack(p) + cycleSlack
+    (w.toLong * h + rows * w + c, s"N + $rows*W + $c")
+  }
+  /** Cycles beyond the rows: the search of the last active node and the output register. */
+  val cycleSlack: Int = 8
+
+  def runSuite(config: String): Unit = {
+    val p = ElasParams.byName(config)
+    val rnd = new Random(seed ^ config.hashCode ^ 0x5a)
+    val all = cases(rnd)
+    val tmp = tmpDir(s"support-$config")
+    val expected = all.zipWithIndex.map { case (c, i) => golden(p, c, tmp.resolve(f"golden$i%02d")) }
+    val (w, h) = (p.maxWidth, p.maxHeight)
+    val tput = shiftedPair(w, h, 11, rnd)
+    val tputExpected = golden(p, tput, tmp.resolve("golden-throughput"))
+    simulate(new SupportChain(p), tmp.resolve("verilator")) { dut =>
+      reset(dut)
+      for ((c, exp) <- all.zip(expected)) {
+        val board = new SupportScoreboard(exp, c.label)
+        val traffic = Traffic(rnd.nextDouble() * 0.5, rnd.nextDouble() * 0.5)
+        streamFrames(dut, p, Seq((c.left, c.right)), traffic, rnd, board.check,
+          choppyBound(p, c.left.width, c.left.height), c.label)
+        assert(board.board.ok, board.board.report)
+        println(f"  ${p.name}: ${board.board.report}, ${board.supports} supports (input gaps ${traffic.inputGap}%.2f, output stalls ${traffic.outputStall}%.2f)")
+      }
+
+      // Throughput with no stalls, on the pair with the most supports (every node searches both views).
+      val board = new SupportScoreboard(tputExpected, tput.label)
+      val cycles = streamFrames(dut, p, Seq((tput.left, tput.right)), noStall, rnd, board.check, choppyBound(p, w, h), "throughput")
+      assert(board.board.ok, board.board.report)
+      val (bound, formula) = throughputBound(p, w, h)
+      println(s"  ${p.name}: throughput ${w}x$h (${board.supports} supports): $cycles cycles, bound $bound ($formula)")
+      assert(cycles <= bound, s"throughput: $cycles cycles > bound $bound ($formula)")
+
+      // Two frames back to back in one stream.
+      val b2b = new SupportScoreboard(expected.head, all.head.label + " x2")
+      streamFrames(dut, p, Seq.fill(2)((all.head.left, all.head.right)), Traffic(0.1, 0.1), rnd, b2b.check,
+        choppyBound(p, all.head.left.width, all.head.left.height, 2), "back to back")
+      assert(b2b.board.ok, b2b.board.report)
+      println(s"  ${p.name}: back to back: ${b2b.board.report}")
+    }
+  }
+}
+
+/** `make simulate STAGE=support`: one frame through the Descriptor -> SupportMatcher chain in Verilator (no stalls),
+  * support_L.npy written from the hardware's outputs. The Verilator build is cached per configuration.
+  */
+object SupportRun {
+  /** Writes DIR/support_L.npy and returns the cycle count. */
+  def run(p: ElasParams, left: GrayImage, right: GrayImage, dir: Path): Long = {
+    val (w, h) = (left.width, left.height)
+    val (lh, lw) = (p.latticeCount(h), p.latticeCount(w))
+    val raw = new Array[Byte](2 * lh * lw)
+    var cycles = 0L
+    var framing: Option[String] = None
+    val workDir = java.nio.file.Paths.get("build", "sim-cache", s"${p.name}-support").toAbsolutePath
+    StreamTester.simulate(new SupportChain(p), workDir, cache = true) { dut =>
+      StreamTester.reset(dut)
+      cycles = SupportMatcherSpec.streamFrames(dut, p, Seq((left, right)), StreamTester.noStall, new Random(0),
+        (i, beat) => {
+          val (j, col) = ((i / lw).toInt, (i % lw).toInt)
+          if (framing.isEmpty && (beat.sof != (i == 0) || beat.eol != (col == lw - 1) || beat.eof != (i == lh.toLong * lw - 1)))
+            framing = Some(s"framing wrong at lattice (row $j, col $col): sof ${beat.sof} eol ${beat.eol} eof ${beat.eof}")
+          raw((2 * i).toInt) = beat.value.toByte
+          raw((2 * i + 1).toInt) = (beat.value >> 8).toByte
+        }, 4L * w * h + 100000, "simulate")
+    }
+    framing.foreach(f => throw new IllegalStateException(f))
+    NpyArray.write(dir.resolve("support_L.npy"), "<i2", Seq(lh, lw), raw)
+    cycles
+  }
+}
