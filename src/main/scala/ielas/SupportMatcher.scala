@@ -343,14 +343,17 @@ object SupportMatcher {
   )
 }
 
+/** Ports of the stage-test chains that end in a lattice stream: pixel pairs in, lattice values out. */
+class LatticeChainIO(p: ElasParams) extends Bundle {
+  val in = Flipped(Decoupled(new PixelPair))
+  val frameWidth = Input(UInt(p.colBits.W))
+  val frameHeight = Input(UInt(p.rowBits.W))
+  val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
+}
+
 /** Stage-test chain: pixel input -> [[Descriptor]] -> [[SupportMatcher]] (frame size ports shared by both). */
 class SupportChain(p: ElasParams) extends Module {
-  val io = IO(new Bundle {
-    val in = Flipped(Decoupled(new PixelPair))
-    val frameWidth = Input(UInt(p.colBits.W))
-    val frameHeight = Input(UInt(p.rowBits.W))
-    val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
-  })
+  val io = IO(new LatticeChainIO(p))
   val descriptor = Module(new Descriptor(p))
   val matcher = Module(new SupportMatcher(p))
   descriptor.io.in <> io.in

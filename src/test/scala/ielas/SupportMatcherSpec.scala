@@ -30,7 +30,7 @@ object SupportMatcherSpec {
   /** Left texture; the right view is the left shifted by `shift` columns, so most nodes find support `shift`. */
   def shiftedPair(w: Int, h: Int, shift: Int, rnd: Random): Case = {
     val wide = TestImages.noise(w + shift, h, rnd)
-    Case(s"shifted texture ${w}x$h by $shift", wide.crop(shift, 0, w, h), wide.crop(0, 0, w, h))
+    Case(s"shifted texture ${w}x$h by $shift", wide.crop(0, 0, w, h), wide.crop(shift, 0, w, h)) // R(x - d) = L(x)
   }
 
   def cases(rnd: Random): Seq[Case] = {
@@ -57,8 +57,8 @@ object SupportMatcherSpec {
   }
 
   /** Checks lattice values and framing of frames of one size following each other. */
-  class SupportScoreboard(expected: NpyArray, label: String) {
-    val board = new Scoreboard(s"support [$label]")
+  class SupportScoreboard(expected: NpyArray, label: String, stage: String = "support") {
+    val board = new Scoreboard(s"$stage [$label]")
     private val (lh, lw) = (expected.shape(0), expected.shape(1))
     def check(index: Long, beat: SupportBeat): Unit = {
       val node = index % (lh.toLong * lw)
@@ -73,7 +73,7 @@ object SupportMatcherSpec {
   }
 
   /** Streams same-size frames through the chain and hands every lattice output to `sink`; returns the cycles. */
-  def streamFrames(dut: SupportChain, p: ElasParams, frames: Seq[(GrayImage, GrayImage)], traffic: Traffic, rnd: Random,
+  def streamFrames(dut: Module { val io: LatticeChainIO }, p: ElasParams, frames: Seq[(GrayImage, GrayImage)], traffic: Traffic, rnd: Random,
       sink: (Long, SupportBeat) => Unit, maxCycles: Long, what: String): Long = {
     val (w, h) = (frames.head._1.width, frames.head._1.height)
     poke(dut.io.frameWidth, w)
