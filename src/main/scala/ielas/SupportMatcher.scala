@@ -351,9 +351,13 @@ class LatticeChainIO(p: ElasParams) extends Bundle {
   val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
 }
 
-/** Stage-test chain: pixel input -> [[Descriptor]] -> [[SupportMatcher]] (frame size ports shared by both). */
-class SupportChain(p: ElasParams) extends Module {
+/** A stage-test chain from pixel pairs to a lattice stream. */
+abstract class LatticeChain(p: ElasParams) extends Module {
   val io = IO(new LatticeChainIO(p))
+}
+
+/** Stage-test chain: pixel input -> [[Descriptor]] -> [[SupportMatcher]] (frame size ports shared by both). */
+class SupportChain(p: ElasParams) extends LatticeChain(p) {
   val descriptor = Module(new Descriptor(p))
   val matcher = Module(new SupportMatcher(p))
   descriptor.io.in <> io.in

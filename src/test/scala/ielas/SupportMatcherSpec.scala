@@ -17,6 +17,9 @@ class SupportMatcherSpec extends AnyFlatSpec {
   it should "match the golden support lattice at config small, with the throughput bound" in {
     runSuite("small")
   }
+  it should "match the golden support lattice at kitti width (1242x16, dispMax 255), with the throughput bound" in {
+    runKittiWidth()
+  }
 }
 
 object SupportMatcherSpec {
@@ -73,7 +76,7 @@ object SupportMatcherSpec {
   }
 
   /** Streams same-size frames through the chain and hands every lattice output to `sink`; returns the cycles. */
-  def streamFrames(dut: Module { val io: LatticeChainIO }, p: ElasParams, frames: Seq[(GrayImage, GrayImage)], traffic: Traffic, rnd: Random,
+  def streamFrames(dut: LatticeChain, p: ElasParams, frames: Seq[(GrayImage, GrayImage)], traffic: Traffic, rnd: Random,
       sink: (Long, SupportBeat) => Unit, maxCycles: Long, what: String): Long = {
     val (w, h) = (frames.head._1.width, frames.head._1.height)
     poke(dut.io.frameWidth, w)
@@ -101,6 +104,36 @@ object SupportMatcherSpec {
   }
   /** Cycles beyond the rows: the search of the last active node and the output register. */
   val cycleSlack: Int = 8
+
+  /** The one kitti-width build of `make test`: full 1242 columns and 256 disparities, 16 rows. */
+  def runKittiWidth(): Unit = {
+    val p = ElasParams.byName("kitti")
+    val rnd = new Random(seed ^ 0x4b17)
+    val (kl, kr) = TestImages.kitti2012
+    val (w, h) = (p.maxWidth, 16)
+    val all = Seq( // KITTI 2012 000070 is 1241 wide: the synthetic pairs are 1242
+      Case(s"KITTI 2012 000070 ${kl.width}x$h rows 150..165", kl.crop(0, 150, kl.width, h), kr.crop(0, 150, kl.width, h)),
+      shiftedPair(w, h, 37, rnd), shiftedPair(w, h, 230, rnd))
+    val tmp = tmpDir("support-kitti")
+    val expected = all.zipWithIndex.map { case (c, i) => golden(p, c, tmp.resolve(f"golden$i%02d")) }
+    simulate(new SupportChain(p), tmp.resolve("verilator")) { dut =>
+      reset(dut)
+      for (((c, exp), i) <- all.zip(expected).zipWithIndex) {
+        val board = new SupportScoreboard(exp, c.label)
+        // the first pair with no stalls: the throughput bound at full width and the whole disparity range
+        val traffic = if (i == 1) noStall else Traffic(rnd.nextDouble() * 0.3, rnd.nextDouble() * 0.3)
+        val t0 = System.nanoTime()
+        val cycles = streamFrames(dut, p, Seq((c.left, c.right)), traffic, rnd, board.check, choppyBound(p, c.left.width, h), c.label)
+        assert(board.board.ok, board.board.report)
+        println(f"  kitti: ${board.board.report}, ${board.supports} supports, $cycles cycles in ${(System.nanoTime() - t0) / 1e9}%.1f s (input gaps ${traffic.inputGap}%.2f, output stalls ${traffic.outputStall}%.2f)")
+        if (traffic == noStall) {
+          val (bound, formula) = throughputBound(p, w, h)
+          println(s"  kitti: throughput ${w}x$h: $cycles cycles, bound $bound ($formula)")
+          assert(cycles <= bound, s"throughput: $cycles cycles > bound $bound ($formula)")
+        }
+      }
+    }
+  }
 
   def runSuite(config: String): Unit = {
     val p = ElasParams.byName(config)
@@ -140,19 +173,22 @@ object SupportMatcherSpec {
   }
 }
 
-/** `make simulate STAGE=support`: one frame through the Descriptor -> SupportMatcher chain in Verilator (no stalls),
-  * support_L.npy written from the hardware's outputs. The Verilator build is cached per configuration.
+/** `make simulate STAGE=support|filter`: one frame through the Descriptor -> SupportMatcher (-> SupportFilter) chain
+  * in Verilator (no stalls), support_L.npy / support_filtered_L.npy written from the hardware's outputs. The
+  * Verilator build is cached per configuration and stage.
   */
 object SupportRun {
-  /** Writes DIR/support_L.npy and returns the cycle count. */
-  def run(p: ElasParams, left: GrayImage, right: GrayImage, dir: Path): Long = {
+  /** Writes DIR/support_L.npy (or, with `filtered`, DIR/support_filtered_L.npy) and returns the cycle count. */
+  def run(p: ElasParams, left: GrayImage, right: GrayImage, dir: Path, filtered: Boolean = false): Long = {
     val (w, h) = (left.width, left.height)
     val (lh, lw) = (p.latticeCount(h), p.latticeCount(w))
     val raw = new Array[Byte](2 * lh * lw)
     var cycles = 0L
     var framing: Option[String] = None
-    val workDir = java.nio.file.Paths.get("build", "sim-cache", s"${p.name}-support").toAbsolutePath
-    StreamTester.simulate(new SupportChain(p), workDir, cache = true) { dut =>
+    val stage = if (filtered) "filter" else "support"
+    val workDir = java.nio.file.Paths.get("build", "sim-cache", s"${p.name}-$stage").toAbsolutePath
+    def chain: LatticeChain = if (filtered) new SupportFilterChain(p) else new SupportChain(p)
+    StreamTester.simulate(chain, workDir, cache = true) { dut =>
       StreamTester.reset(dut)
       cycles = SupportMatcherSpec.streamFrames(dut, p, Seq((left, right)), StreamTester.noStall, new Random(0),
         (i, beat) => {
@@ -164,7 +200,7 @@ object SupportRun {
         }, 4L * w * h + 100000, "simulate")
     }
     framing.foreach(f => throw new IllegalStateException(f))
-    NpyArray.write(dir.resolve("support_L.npy"), "<i2", Seq(lh, lw), raw)
+    NpyArray.write(dir.resolve(if (filtered) "support_filtered_L.npy" else "support_L.npy"), "<i2", Seq(lh, lw), raw)
     cycles
   }
 }

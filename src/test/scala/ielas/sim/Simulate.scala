@@ -10,7 +10,7 @@ import scala.util.Random
   * Every value it writes comes out of the simulated hardware: it never calls the golden model.
   */
 object Simulate {
-  val stages: Seq[String] = Seq("descriptor", "support")
+  val stages: Seq[String] = Seq("descriptor", "support", "filter")
 
   def main(args: Array[String]): Unit = Cli.exitOnError("simulate") {
     val opts = Cli.parse(args, Set("--config", "--stage", "--left", "--right", "--out"),
@@ -24,6 +24,7 @@ object Simulate {
     Files.createDirectories(out)
     val (cycles, files) = stage match {
       case "support" => (SupportRun.run(p, left, right, out), Seq("support_L.npy"))
+      case "filter" => (SupportRun.run(p, left, right, out, filtered = true), Seq("support_filtered_L.npy"))
       case _ =>
         val result = DescriptorRun.run(p, left, right)
         result.writeDump(out)

@@ -1,0 +1,179 @@
+package ielas
+
+import chisel3._
+import chisel3.util._
+
+/** Stage `filter`: the inconsistency filter over a snapshot of the support lattice (docs/ALGORITHM.md / PINNED 4).
+  *
+  * Input and output: the lattice stream of [[SupportMatcher]] (lattice raster order, every node, -1 = none, with
+  * sof / eol / eof). Node (j, i) is kept iff it holds a support d and at least inconMinSupport nodes (itself
+  * included) of the (2k+1) x (2k+1) window around it (k = inconWindowSize, clipped to the lattice) hold a support
+  * within inconThreshold of d. The lattice size is learned from the framing (the first eol gives Lw, eof gives Lh),
+  * so the stage needs no frame size ports.
+  *
+  * Buffer: slots = 2k + 2 lattice rows, one memory per row slot (rows j-k .. j+k are read while row j+k+1 is
+  * written into the remaining slot):
+  *   buffer bits = (2k + 2) x latticeColsMax x (dispBits + 1)   (kitti: 12 x 250 x 9 = 27,000 bits).
+  * Per node: one cycle reads the centre column, then one column of 2k+1 rows per cycle is counted, plus one drain
+  * cycle: 2k + 4 cycles for a support node (14 at k = 5), 2 for an empty node, against an average of step^2 = 25
+  * pixel clocks per node at 1 pixel per clock. The input stalls only when the row slot to be written is still
+  * inside the window being filtered (or a new frame arrives while the previous one is still being filtered).
+  */
+class SupportFilter(p: ElasParams) extends Module {
+  private val k = p.inconWindowSize
+  private val slots = SupportFilter.slots(p)
+  private val colsMax = p.latticeColsMax
+  private val colW = log2Ceil(colsMax + 1) + 1
+  private val rowW = log2Ceil(p.latticeRowsMax + 1) + 1
+  private val valueType = SInt((p.dispBits + 1).W)
+
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(new Framed(SInt((p.dispBits + 1).W))))
+    val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
+  })
+
+  // ---- input side ----
+  val inBusy = RegInit(false.B) //   lattice values of a frame are still expected
+  val procBusy = RegInit(false.B) // nodes of a frame are still to be filtered
+  val frameDone = RegInit(false.B) // eof received: rowsIn = Lh
+  val colIn = RegInit(0.U(colW.W))
+  val rowsIn = RegInit(0.U(rowW.W)) // complete rows received (= index of the row being written)
+  val inSlot = RegInit(0.U(log2Ceil(slots).W))
+  val lw = RegInit(0.U(colW.W))
+  val procJ = RegInit(0.U(rowW.W))
+
+  val start = io.in.valid && io.in.bits.sof && !inBusy && !procBusy
+  val slotFree = rowsIn <= procJ +& (k + 1).U // the slot of row rowsIn last held row rowsIn - slots
+  io.in.ready := Mux(inBusy, slotFree, !io.in.bits.sof || !procBusy)
+  val write = io.in.fire && (inBusy || start)
+  val writeCol = Mux(start, 0.U, colIn)
+  val writeRow = Mux(start, 0.U, rowsIn)
+  val writeSlot = Mux(start, 0.U, inSlot)
+
+  val rows = Seq.fill(slots)(SyncReadMem(colsMax, valueType))
+  for ((mem, s) <- rows.zipWithIndex) when(write && writeSlot === s.U) { mem.write(writeCol, io.in.bits.data) }
+
+  when(start) {
+    inBusy := true.B; procBusy := true.B; frameDone := false.B
+    rowsIn := 0.U; inSlot := 0.U
+  }
+  when(write) {
+    colIn := writeCol + 1.U
+    when(io.in.bits.eol) {
+      colIn := 0.U
+      rowsIn := writeRow + 1.U
+      inSlot := Mux(writeSlot === (slots - 1).U, 0.U, writeSlot + 1.U)
+      when(writeRow === 0.U) { lw := writeCol + 1.U }
+      when(io.in.bits.eof) { inBusy := false.B; frameDone := true.B }
+    }
+  }
+
+  // ---- filtering ----
+  val sIdle :: sCentre :: sFirst :: sScan :: sEmit :: Nil = Enum(5)
+  val state = RegInit(sIdle)
+  val procI = RegInit(0.U(colW.W))
+  val procSlot = RegInit(0.U(log2Ceil(slots).W))
+  val readCol = Wire(UInt(colW.W))
+  readCol := procI
+  val readData = rows.map(_.read(readCol(log2Ceil(colsMax) - 1, 0)))
+
+  /** The value of window row offset o (row procJ + o) in the column read last cycle, and whether that row exists. */
+  def windowRow(o: Int): (SInt, Bool) = {
+    val slot = (procSlot +& (o + slots).U) % slots.U
+    val row = procJ.zext +& o.S
+    (VecInit(readData)(slot(log2Ceil(slots) - 1, 0)), row >= 0.S && row < rowsIn.zext)
+  }
+
+  val centre = Reg(valueType)
+  val count = Reg(UInt(log2Ceil((2 * k + 1) * (2 * k + 1) + 1).W))
+  val scanCol = Reg(UInt(colW.W)) //  next column to read
+  val scanLast = Reg(UInt(colW.W)) // last column of the window
+  val lastRead = RegInit(false.B) //  the column read last cycle was the window's last
+
+  val rowReady = frameDone || rowsIn > procJ +& k.U
+  val columnCount = (-k to k).map { o =>
+    val (v, exists) = windowRow(o)
+    val diff = Mux(v > centre, v - centre, centre - v)
+    (exists && v >= 0.S && diff <= p.inconThreshold.S).asUInt
+  }.reduce(_ +& _)
+
+  val outValid = RegInit(false.B)
+  val outBits = Reg(new Framed(valueType))
+  val outFree = !outValid || io.out.ready
+  when(io.out.fire) { outValid := false.B }
+  io.out.valid := outValid
+  io.out.bits := outBits
+
+  def emit(value: SInt): Unit = when(outFree) {
+    val eol = procI === lw - 1.U
+    val eof = eol && frameDone && procJ === rowsIn - 1.U
+    outValid := true.B
+    outBits.data := value
+    outBits.sof := procI === 0.U && procJ === 0.U
+    outBits.eol := eol
+    outBits.eof := eof
+    state := sCentre
+    procI := procI + 1.U
+    when(eol) {
+      procI := 0.U
+      procJ := procJ + 1.U
+      procSlot := Mux(procSlot === (slots - 1).U, 0.U, procSlot + 1.U)
+    }
+    when(eof) { state := sIdle; procBusy := false.B }
+  }
+
+  switch(state) {
+    is(sIdle) {
+      when(start) { procI := 0.U; procJ := 0.U; procSlot := 0.U; state := sCentre }
+    }
+    is(sCentre) { // reading the centre column of node (procJ, procI)
+      when(rowReady) { state := sFirst }
+    }
+    is(sFirst) {
+      val (v, _) = windowRow(0)
+      centre := v
+      when(v < 0.S) {
+        emit((-1).S)
+      }.otherwise {
+        val first = Mux(procI > k.U, procI - k.U, 0.U)
+        readCol := first
+        scanCol := first + 1.U
+        scanLast := Mux(procI +& k.U < lw, procI + k.U, lw - 1.U)
+        lastRead := first === Mux(procI +& k.U < lw, procI + k.U, lw - 1.U)
+        count := 0.U
+        state := sScan
+      }
+    }
+    is(sScan) { // count the column read last cycle, read the next one
+      count := count + columnCount
+      readCol := Mux(lastRead, procI, scanCol) // past the window's last column: an address that exists
+      scanCol := scanCol + 1.U
+      lastRead := scanCol === scanLast
+      when(lastRead) { state := sEmit }
+    }
+    is(sEmit) {
+      emit(Mux(count >= p.inconMinSupport.U, centre, (-1).S))
+    }
+  }
+  // sCentre and sFirst read procI (the default); a stall in sEmit reads nothing useful.
+}
+
+object SupportFilter {
+  /** Lattice row slots: the 2k + 1 rows of the window plus the row being written. */
+  def slots(p: ElasParams): Int = 2 * p.inconWindowSize + 2
+
+  def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
+    MemoryUse("Filter", "rows", p.latticeColsMax, slots(p) * (p.dispBits + 1),
+      s"${slots(p)} lattice rows of ${p.dispBits + 1}-bit values, one SyncReadMem 1R1W per row"))
+}
+
+/** Stage-test chain: pixel input -> [[Descriptor]] -> [[SupportMatcher]] -> [[SupportFilter]]. */
+class SupportFilterChain(p: ElasParams) extends LatticeChain(p) {
+  val support = Module(new SupportChain(p))
+  val filter = Module(new SupportFilter(p))
+  support.io.in <> io.in
+  support.io.frameWidth := io.frameWidth
+  support.io.frameHeight := io.frameHeight
+  filter.io.in <> support.io.out
+  io.out <> filter.io.out
+}
