@@ -99,6 +99,7 @@ run_pair() {
   local range=()
   [ -n "$CONFIG" ] || range=(--disp-max "$dispmax")
   local disp="$OUT/$name-disp.pfm" log="$OUT/$name-match.log" start end wall
+  rm -f "$OUT/$name-disp.png"
   start="$(date +%s.%N)"
   if ! "$GOLDEN" match --mode "$MODE" "${SELECT[@]}" "${range[@]}" --left "$left" --right "$right" \
          --out "$disp" --time "${PASS[@]}" > "$log" 2>&1; then
@@ -107,17 +108,17 @@ run_pair() {
   end="$(date +%s.%N)"
   wall="$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.4f", b - a }')"
   local seconds; seconds="$(parse_time "$log" "$wall")"
-  "$EVAL" colour --disp "$disp" --out "$OUT/$name-disp.png" --colour-max "$dispmax"
   while [ $# -gt 0 ]; do
     local region="$1" gt="$2" scale="$3" maskopt="$4"; shift 4
-    local mask=()
+    local mask=() colour=()
+    [ -f "$OUT/$name-disp.png" ] || colour=(--colour "$OUT/$name-disp.png")
     case "$maskopt" in
       keep:*) mask=(--mask "${maskopt#keep:}") ;;
       drop:*) mask=(--exclude-mask "${maskopt#drop:}") ;;
     esac
     local line
     line="$("$EVAL" score --disp "$disp" --gt "$gt" --gt-scale "$scale" "${mask[@]}" --name "$name" \
-              --region "$region" --time "$seconds" --error "$OUT/$name-$region-error.png" 2>/dev/null)" \
+              --region "$region" --time "$seconds" --error "$OUT/$name-$region-error.png" "${colour[@]}" 2>/dev/null)" \
       || { FAILED+=("$name/$region: scoring failed"); continue; }
     echo "$family,$line" >> "$CSV"
     echo "  $family $name $region: bad-3 $(echo "$line" | cut -d, -f7) %, ${seconds} s"
