@@ -10,31 +10,32 @@ namespace ielas {
 
 void removeSmallSegments(cv::Mat& d, int simThreshold, int minSize, int windowRows) {
   const int H = d.rows, W = d.cols;
+  std::vector<int16_t> val(size_t(H) * W);
+  for (int v = 0; v < H; ++v) std::copy(d.ptr<int16_t>(v), d.ptr<int16_t>(v) + W, val.begin() + ptrdiff_t(v) * W);
   std::vector<int> label(size_t(H) * W, -1);
   std::vector<int> queue;
   queue.reserve(size_t(H) * W);
   std::vector<int> segSize, segMaxRow;
-  auto at = [&](int idx) { return int(d.at<int16_t>(idx / W, idx % W)); };
   for (int seed = 0; seed < H * W; ++seed) {
-    if (label[seed] >= 0 || at(seed) < 0) continue;
+    if (label[seed] >= 0 || val[seed] < 0) continue;
     const int id = int(segSize.size());
     queue.clear();
     queue.push_back(seed);
     label[seed] = id;
     int maxRow = 0;
+    // Breadth-first growth; the component does not depend on the visiting order (the relation is symmetric).
+    auto visit = [&](int ni, int dp) {
+      if (label[ni] >= 0 || val[ni] < 0 || std::abs(val[ni] - dp) > simThreshold) return;
+      label[ni] = id;
+      queue.push_back(ni);
+    };
     for (size_t q = 0; q < queue.size(); ++q) {
-      const int p = queue[q], v = p / W, u = p % W, dp = at(p);
+      const int p = queue[q], v = p / W, u = p - v * W, dp = val[p];
       maxRow = std::max(maxRow, v);
-      const int nb[4][2] = {{u - 1, v}, {u + 1, v}, {u, v - 1}, {u, v + 1}};
-      for (const auto& n : nb) {
-        if (n[0] < 0 || n[0] >= W || n[1] < 0 || n[1] >= H) continue;
-        const int ni = n[1] * W + n[0];
-        if (label[ni] >= 0) continue;
-        const int dn = at(ni);
-        if (dn < 0 || std::abs(dn - dp) > simThreshold) continue;
-        label[ni] = id;
-        queue.push_back(ni);
-      }
+      if (u > 0) visit(p - 1, dp);
+      if (u < W - 1) visit(p + 1, dp);
+      if (v > 0) visit(p - W, dp);
+      if (v < H - 1) visit(p + W, dp);
     }
     segSize.push_back(int(queue.size()));
     segMaxRow.push_back(maxRow);
@@ -135,10 +136,17 @@ void adaptiveMean(cv::Mat& d16) {
 
 namespace {
 
+// 4th smallest of 7: a 16-comparator sorting network (checked exhaustively on 0/1 inputs), branch-free.
 inline int16_t median7Taps(const int16_t* x, ptrdiff_t stride) {
-  std::array<int16_t, 7> t;
+  static constexpr int kNet[16][2] = {{0, 6}, {2, 3}, {4, 5}, {0, 2}, {1, 4}, {3, 6}, {0, 1}, {2, 5},
+                                      {3, 4}, {1, 2}, {4, 6}, {2, 3}, {4, 5}, {1, 2}, {3, 4}, {5, 6}};
+  int16_t t[7];
   for (int k = 0; k < 7; ++k) t[k] = x[k * stride];
-  std::nth_element(t.begin(), t.begin() + 3, t.end());
+  for (const auto& c : kNet) {
+    const int16_t a = std::min(t[c[0]], t[c[1]]), b = std::max(t[c[0]], t[c[1]]);
+    t[c[0]] = a;
+    t[c[1]] = b;
+  }
   return t[3];
 }
 
