@@ -28,10 +28,14 @@ Grid buildGrid(const cv::Mat& filtered, int W, int H, View view, const Config& c
   // empty first/last grid rows are not reproduced).
   std::vector<int> dilated(marks.size(), 0);
   for (int gy = 0; gy < gh; ++gy)
-    for (int gx = 0; gx < gw; ++gx)
+    for (int gx = 0; gx < gw; ++gx) {
+      int* dst = &dilated[idx(gy, gx, 0)];
       for (int ny = std::max(gy - 1, 0); ny <= std::min(gy + 1, gh - 1); ++ny)
-        for (int nx = std::max(gx - 1, 0); nx <= std::min(gx + 1, gw - 1); ++nx)
-          for (int d = 0; d < nd; ++d) dilated[idx(gy, gx, d)] += marks[idx(ny, nx, d)];
+        for (int nx = std::max(gx - 1, 0); nx <= std::min(gx + 1, gw - 1); ++nx) {
+          const int* src = &marks[idx(ny, nx, 0)];
+          for (int d = 0; d < nd; ++d) dst[d] += src[d];
+        }
+    }
 
   Grid g;
   g.rows = gh;
