@@ -1,7 +1,7 @@
 // The `ielas` pipeline: early stages (descriptor .. grid) and the late stages, plus the stage dumps.
 #include "ielas/ielas.hpp"
 
-#include <chrono>
+#include <ctime>
 #include <stdexcept>
 #include <sys/stat.h>
 
@@ -19,10 +19,10 @@ namespace ielas {
 
 IelasFrame runIelas(const cv::Mat& left8, const cv::Mat& right8, const Config& cfg) {
   IelasFrame f;
-  auto last = std::chrono::steady_clock::now();
+  std::clock_t last = std::clock();  // process CPU time: steadier than wall time on a shared machine
   auto lap = [&](const char* stage) {
-    auto now = std::chrono::steady_clock::now();
-    f.stageMs.emplace_back(stage, std::chrono::duration<double, std::milli>(now - last).count());
+    std::clock_t now = std::clock();
+    f.stageMs.emplace_back(stage, 1000.0 * static_cast<double>(now - last) / CLOCKS_PER_SEC);
     last = now;
   };
   f.W = left8.cols;

@@ -157,7 +157,7 @@ int run(int argc, char** argv) {
                 std::chrono::duration<double, std::milli>(stop - start).count(),
                 1000.0 * static_cast<double>(std::clock() - cpuStart) / CLOCKS_PER_SEC, mode.c_str(), left.cols, left.rows);
   if (o.time && !stageMs.empty()) {  // after the total: scripts read the first timing line
-    std::printf("stages (wall):");
+    std::printf("stages (cpu):");
     for (const auto& st : stageMs) std::printf(" %s %.1f ms;", st.first.c_str(), st.second);
     std::printf("\n");
   }

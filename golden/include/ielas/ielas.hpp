@@ -24,7 +24,7 @@ struct IelasFrame {
   cv::Mat denseL, denseR, lrL, lrR;  // H x W CV_16S, -1 = invalid
   cv::Mat disparity;                 // H x W CV_16S, disparity * 16, -1 = invalid
   std::string lateError;
-  std::vector<std::pair<std::string, double>> stageMs;  // wall time per stage, in order (for --time)
+  std::vector<std::pair<std::string, double>> stageMs;  // CPU time per stage, in order (for --time)
 };
 
 // Runs the pipeline on an 8-bit grey pair that already passed the size checks.
