@@ -24,7 +24,7 @@ namespace {
 const char* kUsage =
     "usage: ielas-golden match --mode elas|ielas (--preset robotics|middlebury [--disp-max N] | --config NAME|FILE.json)\n"
     "                          --left L --right R --out D.pfm|D.png [--interp paper|r7] [--sdelta PX] [--epsilon E]\n"
-    "                          [--fill-c C] [--grid-keep smallest|votes] [--time]\n"
+    "                          [--fill-c C] [--grid-keep smallest|votes] [--grid-corners none|nearest] [--time]\n"
     "       ielas-golden dump  --mode ielas (--preset ... | --config ...) --left L --right R --out DIR [same options]\n";
 
 bool endsWith(const std::string& s, const std::string& tail) {
@@ -57,7 +57,7 @@ struct Options {
 
 Options parseArgs(int argc, char** argv) {
   static const std::set<std::string> withValue = {"--mode", "--preset", "--disp-max", "--config", "--left", "--right",
-                                                  "--out", "--interp", "--sdelta", "--epsilon", "--fill-c", "--grid-keep"};
+                                                  "--out", "--interp", "--sdelta", "--epsilon", "--fill-c", "--grid-keep", "--grid-corners"};
   if (argc < 2) throw std::runtime_error("missing command (match or dump); run ielas-golden --help");
   Options o;
   o.command = argv[1];
@@ -96,6 +96,7 @@ Config buildConfig(const Options& o, const cv::Mat& left) {
   if (o.has("--epsilon")) cfg.epsilon = parseInt("--epsilon", o.get("--epsilon"));
   if (o.has("--fill-c")) cfg.fillC = parseInt("--fill-c", o.get("--fill-c"));
   if (o.has("--grid-keep")) cfg.gridKeep = o.get("--grid-keep");
+  if (o.has("--grid-corners")) cfg.gridCorners = o.get("--grid-corners");
   validateConfig(cfg);
   return cfg;
 }

@@ -265,6 +265,22 @@ void testGrid() {
   CHECK(cell(clipped, 0, 0) == std::vector<int>({0, 1, -1, -1}));
   CHECK(cell(clipped, 0, 2) == std::vector<int>({30, 31, -1, -1}));
   CHECK(cell(clipped, 1, 1) == std::vector<int>({0, 1, 30, 31}));
+
+  // Measurement-only corner points (MIDDLEBURY): one support (5, 5, d=5) is every corner's nearest point, so the
+  // corner (59, 0) marks 4..6 in cell (0,2), which is empty without corners. Right grid: TR' = (64, 0, 5) maps
+  // to x = 59 -> cell (0,2) too.
+  Config m = presetConfig("middlebury", 31, 60, 40);
+  cv::Mat one(9, 13, CV_16S, cv::Scalar(-1));
+  one.at<int16_t>(1, 1) = 5;
+  CHECK(cell(buildGrid(one, 60, 40, View::Left, m), 0, 2) == std::vector<int>(20, -1));
+  m.gridCorners = "nearest";
+  std::vector<int> expected(20, -1);
+  expected[0] = 4, expected[1] = 5, expected[2] = 6;
+  CHECK(cell(buildGrid(one, 60, 40, View::Left, m), 0, 2) == expected);
+  CHECK(cell(buildGrid(one, 60, 40, View::Right, m), 1, 2) == expected);
+  Config rob = presetConfig("robotics", 31, 60, 40);  // addCorners 0: the knob has no effect
+  rob.gridCorners = "nearest";
+  CHECK(cell(buildGrid(one, 60, 40, View::Left, rob), 0, 2) == std::vector<int>(20, -1));
 }
 
 }  // namespace
