@@ -10,6 +10,7 @@ namespace ielas {
 
 void removeSmallSegments(cv::Mat& d, int simThreshold, int minSize, int windowRows) {
   const int H = d.rows, W = d.cols;
+  if (windowRows < 1) throw std::runtime_error("post: speckleWindowRows must be >= 1");
   std::vector<int16_t> val(size_t(H) * W);
   for (int v = 0; v < H; ++v) std::copy(d.ptr<int16_t>(v), d.ptr<int16_t>(v) + W, val.begin() + ptrdiff_t(v) * W);
   std::vector<int> label(size_t(H) * W, -1);

@@ -130,5 +130,7 @@ int main() {
     checkEqual(out, mat(2, 6, {32, 40, 48, 48, -1, -1, 32, 32, 48, 48, -1, -1}), __LINE__);
   }
   CHECK_THROWS(postprocess(cv::Mat(2, 2, CV_32F), Config()), "CV_16S");
+  cv::Mat any = mat(1, 2, {1, 1});
+  CHECK_THROWS(removeSmallSegments(any, 1, 4, 0), "speckleWindowRows");
   return testExitCode("test_postprocess");
 }
