@@ -97,6 +97,20 @@ void testSupportLatticeAndLrCheck() {
   // L/R check: flatten the right centre descriptor (13, 5) (texture 0): the right match fails, so does the support.
   descR.at<cv::Vec<uint8_t, 16>>(5, 13) = cv::Vec<uint8_t, 16>::all(128);
   CHECK_EQ(supportLattice(descL, descR, c).at<int16_t>(1, 4), -1);
+  // A disagreeing right match: left columns 21 and 25 (rows 3 and 7) copy right columns 11 and 15, so the right
+  // reference at 13 finds cost(10) = 0 -> dR = 10, while the left match at 20 (columns 18, 22) still gives 7.
+  // |7 - 10| = 3 > lrThreshold 2 -> rejected; with lrThreshold 3 accepted.
+  makeDescriptors(descL, descR);
+  for (int row : {3, 7}) {
+    descL.ptr<uint8_t>(row)[21 * 16] = descR.ptr<uint8_t>(row)[11 * 16];
+    descL.ptr<uint8_t>(row)[25 * 16] = descR.ptr<uint8_t>(row)[15 * 16];
+  }
+  CHECK_EQ(supportMatch(descL, descR, 20, 5, View::Left, c), 7);
+  CHECK_EQ(supportMatch(descL, descR, 13, 5, View::Right, c), 10);
+  CHECK_EQ(supportLattice(descL, descR, c).at<int16_t>(1, 4), -1);
+  c.lrThreshold = 3;
+  CHECK_EQ(supportLattice(descL, descR, c).at<int16_t>(1, 4), 7);
+  c.lrThreshold = 2;
   // The check's tolerance: with lrThreshold 0 an equal right disparity still passes.
   makeDescriptors(descL, descR);
   c.lrThreshold = 0;
