@@ -101,12 +101,14 @@ def run_yosys(script, workdir, label, timeout, mem_mb):
 
 def synthesise(design, module, workdir, args, glue_children=None):
     """Synthesises `module` flattened (its children as black boxes when glue_children is given)."""
-    files = design.closure_files(module)
-    own = os.path.abspath(os.path.join(design.dir, design.file_of[module]))
+    # Glue run: the stages are read as black boxes (-lib: ports only); everything else is synthesised.
+    boxed = set(glue_children or {})
+    inside = design.reachable(module, skip=boxed)
     lines = []
-    for f in files:
+    for f in design.closure_files(module):
         path = os.path.abspath(os.path.join(design.dir, f))
-        lib = glue_children is not None and path != own and f not in design.headers
+        defined = {m for m, g in design.file_of.items() if g == f}
+        lib = bool(defined) and not (defined & inside)
         lines.append(f'read_verilog -sv {"-lib " if lib else ""}"{path}"')
     lines += [f"{SYNTH_CMD} -top {module}", "tee -q -o stat.txt stat", "write_json netlist.json"]
     seconds, log = run_yosys("\n".join(lines) + "\n", workdir, module, args.timeout, args.mem_mb)
@@ -117,7 +119,7 @@ def synthesise(design, module, workdir, args, glue_children=None):
         os.remove(netlist)
     mapping = parse_memory_mapping(log)
     memories = []
-    expected = [] if glue_children is not None else design.memory_instances(module)
+    expected = design.memory_instances(module, skip=boxed)
     for mem in expected:
         kind, via = mapping.pop(mem["path"], ("removed", "optimised away before memory mapping"))
         memories.append(dict(mem, mapped=kind, via=via))
@@ -151,7 +153,7 @@ def cached(design, module, kind, args, salt, glue_children=None):
 
 def per_module(design, args, salt):
     """Each direct child of the top synthesised alone (with its submodules), plus the top's own glue logic."""
-    children = design.children[args.top]
+    children = design.stages(args.top)
     jobs = [(m, "stage", None) for m in sorted(children)] + [(args.top, "glue", children)]
     with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         futures = [pool.submit(cached, design, m, kind, args, salt, glue) for m, kind, glue in jobs]
@@ -163,11 +165,15 @@ def per_module(design, args, salt):
         r["kind"] = kind
         for t, n in r["cells"].items():
             total[t] = total.get(t, 0) + n * r["instances"]
-        memories += [dict(x, path=f"{m}:{x['path']}") for x in r["memories"]]
+        if kind == "glue":
+            memories += r["memories"]
+        else:  # one entry per instance, named as in the whole-top run
+            memories += [dict(x, path=f"{inst}.{x['path']}") for typ, inst in design.instances[args.top]
+                         if typ == m for x in r["memories"]]
     worst = max(results, key=lambda r: (r["lut_levels"], r["logic_levels"]))
     return {"method": "modules", "cells": total, "resources": resources_of(total),
             "lut_levels": worst["lut_levels"], "logic_levels": worst["logic_levels"],
-            "critical_path": [f"[{worst['module']}] " + c for c in worst["critical_path"]],
+            "critical_path": [f"(in {worst['module']})"] + worst["critical_path"],
             "seconds": round(sum(0 if r["cached"] else r["seconds"] for r in results), 1),
             "memories": memories, "modules": results}
 
@@ -200,7 +206,7 @@ def markdown(report):
         rows.append(("whole top (flattened)", report["top"]))
     if "modules" in report:
         rows.append(("sum of modules", report["modules"]))
-    out.append("| run | " + " | ".join(COLUMNS) + " | LUT levels | logic levels | Yosys s |")
+    out.append("| run | " + " | ".join(COLUMNS) + " | LUT levels | logic levels | Yosys s (this run) |")
     out.append("|---|" + "---:|" * (len(COLUMNS) + 3))
     for label, r in rows:
         res = r["resources"]
@@ -208,7 +214,7 @@ def markdown(report):
                    f" | {r['lut_levels']} | {r['logic_levels']} | {r['seconds']} |")
     if "modules" in report:
         out += ["", "Per module (instances x one instance):", "",
-                "| module | kind | instances | " + " | ".join(COLUMNS) + " | LUT levels | cached | Yosys s |",
+                "| module | kind | instances | " + " | ".join(COLUMNS) + " | LUT levels | cached | Yosys s (when run) |",
                 "|---|---|---:|" + "---:|" * (len(COLUMNS) + 3)]
         for r in report["modules"]["modules"]:
             res = r["resources"]

@@ -136,10 +136,15 @@ TOP = """module Top(input clock, input [9:0] waddr, input [9:0] raddr, input [15
   output [15:0] out);
   wire [15:0] _a_out;
   wire [15:0] _b_out;
+  wire [15:0] _own_R0_data;
   Stage a (.clock(clock), .waddr(waddr), .raddr(raddr), .wdata(wdata), .we(we), .out(_a_out));
   Stage b (.clock(clock), .waddr(waddr), .raddr(raddr), .wdata(~wdata), .we(we), .out(_b_out));
+  mem_1024x16 own_ext (
+    .R0_addr(raddr), .R0_en(1'h1), .R0_clk(clock), .R0_data(_own_R0_data),
+    .W0_addr(waddr), .W0_en(we), .W0_clk(clock), .W0_data({wdata[7:0], wdata[15:8]})
+  );
   reg [15:0] out_r;
-  always @(posedge clock) out_r <= _a_out ^ _b_out;
+  always @(posedge clock) out_r <= _a_out ^ _b_out ^ _own_R0_data;
   assign out = out_r;
 endmodule
 """
@@ -157,10 +162,13 @@ class DesignTest(unittest.TestCase):
 
     def test_hierarchy_and_memories(self):
         d = verilog_modules.Design(self.dir)
-        self.assertEqual(d.children["Top"], {"Stage": 2})
+        self.assertEqual(d.children["Top"], {"Stage": 2, "mem_1024x16": 1})
+        self.assertEqual(d.stages("Top"), {"Stage": 2})  # the top's own memory stays with its user
         self.assertEqual(d.closure("Stage"), ["Stage", "mem_1024x16"])
         paths = [(m["path"], m["width"], m["depth"], m["sync_read"]) for m in d.memory_instances("Top")]
-        self.assertEqual(paths, [("a.m_ext.Memory", 16, 1024, True), ("b.m_ext.Memory", 16, 1024, True)])
+        self.assertEqual(paths, [("a.m_ext.Memory", 16, 1024, True), ("b.m_ext.Memory", 16, 1024, True),
+                                 ("own_ext.Memory", 16, 1024, True)])
+        self.assertEqual([m["path"] for m in d.memory_instances("Top", skip={"Stage"})], ["own_ext.Memory"])
 
     def test_hash_follows_submodules_only(self):
         d = verilog_modules.Design(self.dir)
@@ -185,7 +193,8 @@ class DesignTest(unittest.TestCase):
 
     @unittest.skipUnless(shutil.which("yosys"), "yosys not installed")
     def test_end_to_end_top_and_modules(self):
-        # Hand count: each Stage = one 1024x16 RAM = one RAMB18E1 (1K x 18) holding its own read register. The top registers the XOR of both outputs: 16 LUT2, 16 FDRE, 1 LUT level (RAM -> LUT -> FF).
+        # Hand count: each 1024x16 RAM (one per Stage, one in the top) = one RAMB18E1 (1K x 18) holding its own
+        # read register. The top registers the XOR of the three words: 16 LUT3, 16 FDRE, 1 LUT level.
         out, cache = os.path.join(self.dir, "out"), os.path.join(self.dir, "cache")
         env = dict(os.environ, SYNTH_MODE="both", SYNTH_OUT=out, SYNTH_CACHE=cache)
         cmd = [os.path.join(HERE, "..", "synth.sh"), "t", self.dir]
@@ -200,10 +209,13 @@ class DesignTest(unittest.TestCase):
         for method in ("top", "modules"):
             res = first[method]["resources"]
             self.assertEqual((res["RAMB18E1"], res["RAMB36E1"], res["FF"], res["LUT"], res["BRAM36eq"]),
-                             (2, 0, 16, 16, 1.0), method)
+                             (3, 0, 16, 16, 1.5), method)
+            self.assertEqual([m["mapped"] for m in first[method]["memories"]], ["BRAM"] * 3, method)
         self.assertEqual(first["top"]["lut_levels"], 1)
-        self.assertTrue(first["bram_check"]["pass"])
-        self.assertEqual([m["mapped"] for m in first["top"]["memories"]], ["BRAM", "BRAM"])
+        self.assertEqual(first["modules"]["lut_levels"], 1)
+        self.assertEqual(first["bram_check"], {"sync_read_memories": 3, "in_bram": 3, "not_in_bram": [],
+                                               "pass": True})
+        self.assertTrue(first["comparison"]["agree"])
         self.assertEqual([(m["module"], m["instances"], m["cached"]) for m in first["modules"]["modules"]],
                          [("Stage", 2, False), ("Top", 1, False)])
         self.assertEqual([m["cached"] for m in second["modules"]["modules"]], [True, True])

@@ -61,6 +61,16 @@ class Design:
             todo.extend(self.children.get(m, {}))
         return sorted(seen)
 
+    def reachable(self, top, skip=()):
+        """`top` and the modules below it, not descending into instances of the modules in `skip`."""
+        seen, todo = set(), [top]
+        while todo:
+            m = todo.pop()
+            if m not in seen:
+                seen.add(m)
+                todo.extend(c for c in self.children.get(m, {}) if c not in skip)
+        return seen
+
     def closure_files(self, top):
         return sorted(set(self.headers) | {self.file_of[m] for m in self.closure(top)})
 
@@ -86,8 +96,9 @@ class Design:
                               "bits": width * (int(last) + 1), "sync_read": sync})
         return found
 
-    def memory_instances(self, top):
-        """Every memory below `top` by hierarchical path as Yosys names it after flattening (inst.inst.array)."""
+    def memory_instances(self, top, skip=()):
+        """Every memory below `top` by hierarchical path as Yosys names it after flattening (inst.inst.array),
+        not descending into instances of the modules in `skip`."""
         mems = {}
         for m in self.memories(top):
             mems.setdefault(m["module"], []).append(m)
@@ -97,6 +108,16 @@ class Design:
             for mem in mems.get(module, []):
                 found.append(dict(mem, path=prefix + mem["array"]))
             for typ, inst in self.instances.get(module, []):
-                walk(typ, prefix + inst + ".")
+                if typ not in skip:
+                    walk(typ, prefix + inst + ".")
         walk(top, "")
         return found
+
+    def is_memory_module(self, name):
+        """A firtool memory wrapper (an array, no instances). Synthesised alone it loses the context that lets
+        Yosys map it to block RAM, so it always stays with the module that uses it."""
+        return not self.instances.get(name) and MEMORY_RE.search(self._module_body(name)) is not None
+
+    def stages(self, top):
+        """The children of `top` that the per-module flow synthesises on their own, with instance counts."""
+        return {m: n for m, n in self.children.get(top, {}).items() if not self.is_memory_module(m)}
