@@ -138,38 +138,43 @@ void adaptiveMean(cv::Mat& d16) {
 namespace {
 
 // 4th smallest of 7: a 16-comparator sorting network (checked exhaustively on 0/1 inputs), branch-free.
-inline int16_t median7Taps(const int16_t* x, ptrdiff_t stride) {
-  static constexpr int kNet[16][2] = {{0, 6}, {2, 3}, {4, 5}, {0, 2}, {1, 4}, {3, 6}, {0, 1}, {2, 5},
-                                      {3, 4}, {1, 2}, {4, 6}, {2, 3}, {4, 5}, {1, 2}, {3, 4}, {5, 6}};
-  int16_t t[7];
-  for (int k = 0; k < 7; ++k) t[k] = x[k * stride];
-  for (const auto& c : kNet) {
-    const int16_t a = std::min(t[c[0]], t[c[1]]), b = std::max(t[c[0]], t[c[1]]);
-    t[c[0]] = a;
-    t[c[1]] = b;
-  }
-  return t[3];
+inline void sortPair(int16_t& a, int16_t& b) {
+  const int16_t lo = std::min(a, b), hi = std::max(a, b);
+  a = lo;
+  b = hi;
+}
+inline int16_t median7Of(int16_t t0, int16_t t1, int16_t t2, int16_t t3, int16_t t4, int16_t t5, int16_t t6) {
+  sortPair(t0, t6); sortPair(t2, t3); sortPair(t4, t5);
+  sortPair(t0, t2); sortPair(t1, t4); sortPair(t3, t6);
+  sortPair(t0, t1); sortPair(t2, t5); sortPair(t3, t4);
+  sortPair(t1, t2); sortPair(t4, t6);
+  sortPair(t2, t3); sortPair(t4, t5);
+  sortPair(t1, t2); sortPair(t3, t4); sortPair(t5, t6);
+  return t3;
 }
 
 }  // namespace
 
 void median7(cv::Mat& d16) {
   const int H = d16.rows, W = d16.cols;
-  const ptrdiff_t stride = ptrdiff_t(d16.step1());
   cv::Mat m = d16.clone();
   for (int v = 0; v < H; ++v) {
     const int16_t* in = d16.ptr<int16_t>(v);
     int16_t* out = m.ptr<int16_t>(v);
     for (int u = 3; u <= W - 4; ++u)
-      if (in[u] >= 0) out[u] = median7Taps(in + u - 3, 1);
+      if (in[u] >= 0) out[u] = median7Of(in[u - 3], in[u - 2], in[u - 1], in[u], in[u + 1], in[u + 2], in[u + 3]);
   }
   // Vertical pass on the horizontal result, only where the input pixel was valid; elsewhere the input stays.
   cv::Mat out = m.clone();
   for (int v = 3; v <= H - 4; ++v) {
     const int16_t* in = d16.ptr<int16_t>(v);
+    const int16_t* r[7];
+    for (int k = 0; k < 7; ++k) r[k] = m.ptr<int16_t>(v - 3 + k);
     int16_t* o = out.ptr<int16_t>(v);
-    for (int u = 0; u < W; ++u)
-      if (in[u] >= 0) o[u] = median7Taps(m.ptr<int16_t>(v - 3) + u, stride);
+    for (int u = 0; u < W; ++u) {
+      const int16_t med = median7Of(r[0][u], r[1][u], r[2][u], r[3][u], r[4][u], r[5][u], r[6][u]);
+      o[u] = in[u] >= 0 ? med : o[u];
+    }
   }
   out.copyTo(d16);
 }
