@@ -93,9 +93,15 @@ def run_yosys(script, workdir, label, timeout, mem_mb):
     if proc.returncode in (124, 137):
         raise FlowError(f"{label}: Yosys exceeded the time limit ({timeout} s; SYNTH_TIMEOUT); log {log}")
     if proc.returncode != 0:
-        tail = open(log).read()[-2000:] if os.path.exists(log) else proc.stderr[-2000:]
-        hint = " (out of memory? SYNTH_MEM_MB=%d)" % mem_mb if re.search(r"bad_alloc|[Mm]emory", tail) else ""
-        raise FlowError(f"{label}: Yosys failed, exit {proc.returncode}{hint}; log {log}\n{tail.strip()[-600:]}")
+        text = (open(log).read() if os.path.exists(log) else "") + proc.stderr
+        errors = re.findall(r"^.*ERROR: .*$", text, re.M)
+        if errors:
+            why = errors[0].strip()
+        elif proc.returncode < 0 or "bad_alloc" in text:
+            why = f"killed by signal {-proc.returncode} (out of memory? SYNTH_MEM_MB={mem_mb})"
+        else:
+            why = f"exit {proc.returncode}"
+        raise FlowError(f"{label}: Yosys failed: {why}; log {log}")
     return seconds, open(log).read()
 
 
@@ -263,9 +269,13 @@ def main():
         version = yosys_version()
         args.out = os.path.abspath(args.out)
         args.cache = os.path.abspath(args.cache)
-        if os.path.isdir(args.out):
-            shutil.rmtree(args.out)
-        os.makedirs(args.out)
+        # Clear only what this flow writes: SYNTH_OUT may point anywhere.
+        for sub in ("top", "modules"):
+            shutil.rmtree(os.path.join(args.out, sub), ignore_errors=True)
+        for f in ("resources.json", "resources.md"):
+            if os.path.exists(os.path.join(args.out, f)):
+                os.remove(os.path.join(args.out, f))
+        os.makedirs(args.out, exist_ok=True)
         salt = f"{FLOW_VERSION}|{SYNTH_CMD}|{version}"
         report = {"config": args.config, "verilog_dir": args.verilog, "flow": SYNTH_CMD + f" -top {args.top}",
                   "yosys": version, "flow_version": FLOW_VERSION}

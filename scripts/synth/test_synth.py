@@ -192,6 +192,17 @@ class DesignTest(unittest.TestCase):
         self.assertEqual(len(r.stderr.strip().splitlines()), 1)
 
     @unittest.skipUnless(shutil.which("yosys"), "yosys not installed")
+    def test_yosys_error_is_one_line(self):
+        with open(os.path.join(self.dir, "Top.sv"), "a") as fh:
+            fh.write("module Broken(input a;\nendmodule\n")
+        env = dict(os.environ, SYNTH_OUT=os.path.join(self.dir, "out"), SYNTH_TOP="Top")
+        r = subprocess.run([os.path.join(HERE, "..", "synth.sh"), "t", self.dir], capture_output=True, text=True,
+                           env=env)
+        self.assertEqual(r.returncode, 1)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertIn("syntax error", r.stderr)
+
+    @unittest.skipUnless(shutil.which("yosys"), "yosys not installed")
     def test_end_to_end_top_and_modules(self):
         # Hand count: each 1024x16 RAM (one per Stage, one in the top) = one RAMB18E1 (1K x 18) holding its own
         # read register. The top registers the XOR of the three words: 16 LUT3, 16 FDRE, 1 LUT level.
