@@ -1,7 +1,6 @@
 // Post-processing in bounded streaming forms (docs/ALGORITHM.md "## Late stages", post).
 #include "ielas/postprocess.hpp"
 #include <algorithm>
-#include <array>
 #include <cstdlib>
 #include <stdexcept>
 #include <vector>
