@@ -99,7 +99,8 @@ bench: ## cycles/pixel, latency, simulator speed -> docs/performance.md
 	@echo "bench: not implemented yet (needs the whole accelerator)"; exit 1
 
 synth: deps-synth ## Yosys resource table for one configuration
-	@echo "synth: not implemented yet"; exit 1
+	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
+	scripts/synth.sh $(CONFIG) $(VERILOG_DIR)
 
 sweep: deps-synth ## the parameter sweep (SWEEP=quick|full)
 	@echo "sweep: not implemented yet"; exit 1

@@ -20,6 +20,8 @@ lazy val root = (project in file("."))
     Test / fork := true,
     Test / parallelExecution := false,
     Test / javaOptions ++= Seq("-Xss8m", "-Xmx4g"),
+    // forward -Dielas.* (seed, vcd, golden, data) from the sbt command line into the forked test JVM
+    Test / javaOptions ++= sys.props.toSeq.collect { case (k, v) if k.startsWith("ielas.") => s"-D$k=$v" },
     Test / baseDirectory := (ThisBuild / baseDirectory).value,
     Compile / run / baseDirectory := (ThisBuild / baseDirectory).value,
     Test / testOptions += Tests.Argument(TestFrameworks.ScalaTest, "-oD")

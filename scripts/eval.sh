@@ -12,8 +12,8 @@
 # Output: build/eval/<mode>-<preset|config>[-<match args>]/ with results.csv (one line per pair and region),
 # results.md (per-pair metrics, family means, goal families first), <pair>-disp.png (colourised) and
 # <pair>-<region>-error.png. With --config, pairs larger than the configuration are skipped and listed; a
-# 640x480 configuration (tsukuba*) scores centred 640x480 crops of Reindeer, Wood2 and Motorcycle, cut at run
-# time into the output directory (never commit them).
+# tsukuba* (or any 640x480) configuration also scores centred 640x480 crops of Reindeer, Wood2 and Motorcycle,
+# cut at run time into the output directory (never commit them).
 #
 # Environment: IELAS_DATA (default <repo>/../shared/data), IELAS_GOLDEN / IELAS_EVAL (binaries, default
 # golden/build/ielas-golden and golden/build/ielas-eval), EVAL_OUT (output directory override).
@@ -57,8 +57,9 @@ if [ -n "$CONFIG" ]; then
   json_int() { grep -o "\"$1\"[[:space:]]*:[[:space:]]*[0-9]*" "$CONFIG_FILE" | head -1 | grep -o '[0-9]*$'; }
   MAX_W="$(json_int maxWidth)"; MAX_H="$(json_int maxHeight)"
   [ -n "$MAX_W" ] && [ -n "$MAX_H" ] || die "no maxWidth/maxHeight in $CONFIG_FILE"
-  [ "$MAX_W" -ge 640 ] && [ "$MAX_H" -ge 480 ] && [ "$MAX_W" -lt 741 ] && CROPS=1
   SETTING="$(basename "$CONFIG" .json)"
+  # New Tsukuba-sized configurations score the centred 640x480 crops (EVALUATION.md).
+  if [[ "$SETTING" == tsukuba* ]] || { [ "$MAX_W" = 640 ] && [ "$MAX_H" = 480 ]; }; then CROPS=1; fi
   SELECT=(--config "$CONFIG")
 else
   SETTING="$PRESET"
@@ -99,6 +100,7 @@ run_pair() {
   local range=()
   [ -n "$CONFIG" ] || range=(--disp-max "$dispmax")
   local disp="$OUT/$name-disp.pfm" log="$OUT/$name-match.log" start end wall
+  rm -f "$OUT/$name-disp.png"
   start="$(date +%s.%N)"
   if ! "$GOLDEN" match --mode "$MODE" "${SELECT[@]}" "${range[@]}" --left "$left" --right "$right" \
          --out "$disp" --time "${PASS[@]}" > "$log" 2>&1; then
@@ -107,17 +109,17 @@ run_pair() {
   end="$(date +%s.%N)"
   wall="$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.4f", b - a }')"
   local seconds; seconds="$(parse_time "$log" "$wall")"
-  "$EVAL" colour --disp "$disp" --out "$OUT/$name-disp.png" --colour-max "$dispmax"
   while [ $# -gt 0 ]; do
     local region="$1" gt="$2" scale="$3" maskopt="$4"; shift 4
-    local mask=()
+    local mask=() colour=()
+    [ -f "$OUT/$name-disp.png" ] || colour=(--colour "$OUT/$name-disp.png")
     case "$maskopt" in
       keep:*) mask=(--mask "${maskopt#keep:}") ;;
       drop:*) mask=(--exclude-mask "${maskopt#drop:}") ;;
     esac
     local line
     line="$("$EVAL" score --disp "$disp" --gt "$gt" --gt-scale "$scale" "${mask[@]}" --name "$name" \
-              --region "$region" --time "$seconds" --error "$OUT/$name-$region-error.png" 2>/dev/null)" \
+              --region "$region" --time "$seconds" --error "$OUT/$name-$region-error.png" "${colour[@]}" 2>/dev/null)" \
       || { FAILED+=("$name/$region: scoring failed"); continue; }
     echo "$family,$line" >> "$CSV"
     echo "  $family $name $region: bad-3 $(echo "$line" | cut -d, -f7) %, ${seconds} s"

@@ -149,6 +149,7 @@ Config readConfigFile(const std::string& path) {
   r.readInt("gridRowsMax", c.gridRowsMax);
   r.readIntList("priorTable", c.priorTable);
   r.readString("gridKeep", c.gridKeep, false);
+  r.readString("gridCorners", c.gridCorners, false);
   validateConfig(c);
   // Derived values must agree with the card parameters: a hand-edited JSON that breaks them is rejected.
   Config derived = c;
@@ -213,6 +214,8 @@ void validateConfig(const Config& c) {
     throw std::runtime_error("configuration: fillRule '" + c.fillRule + "' is unknown (legal: r7, paper)");
   if (c.gridKeep != "smallest" && c.gridKeep != "votes")
     throw std::runtime_error("configuration: gridKeep '" + c.gridKeep + "' is unknown (legal: smallest, votes)");
+  if (c.gridCorners != "none" && c.gridCorners != "nearest")
+    throw std::runtime_error("configuration: gridCorners '" + c.gridCorners + "' is unknown (legal: none, nearest)");
   if (static_cast<int>(c.priorTable.size()) != c.dispMax + 1)
     throw std::runtime_error("configuration: priorTable has " + std::to_string(c.priorTable.size()) +
                              " entries, dispMax + 1 = " + std::to_string(c.dispMax + 1) + " expected");

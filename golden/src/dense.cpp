@@ -32,6 +32,10 @@ inline int texture16(const uint8_t* a) {
   return sad16(a, mid);
 }
 
+// Costs are >= -kCostOffset (SAD >= 0, priors > -4096) and < 2^22, so (cost + offset) << 8 fits an int.
+constexpr int kCostOffset = 4096;
+constexpr int kNoCandidate = 0x7fffffff;
+
 }  // namespace
 
 cv::Mat denseMatch(const cv::Mat& descL, const cv::Mat& descR, const Planes& planes, const Grid& grid, View view,
@@ -41,6 +45,11 @@ cv::Mat denseMatch(const cv::Mat& descL, const cv::Mat& descR, const Planes& pla
       descR.type() != CV_8UC(16))
     throw std::runtime_error("dense: descriptors must be CV_8UC(16) of the frame size " + std::to_string(W) + "x" +
                              std::to_string(H));
+  if (grid.rows != cfg.gridCount(H) || grid.cols != cfg.gridCount(W) ||
+      grid.d.size() != size_t(grid.rows) * grid.cols * grid.slots)
+    throw std::runtime_error("dense: grid must have gridCount(H) x gridCount(W) cells");
+  if (grid.slots >= 128 || 2 * cfg.planeRadius + 1 >= 128 || int(cfg.priorTable.size()) <= cfg.dispMax)
+    throw std::runtime_error("dense: grid slots and plane range must be < 128, priorTable must cover 0..dispMax");
   const int m = cfg.descriptorMargin, R = cfg.planeRadius, dispMax = cfg.dispMax;
   const bool left = view == View::Left;
   const cv::Mat& ref = left ? descL : descR;
@@ -53,8 +62,9 @@ cv::Mat denseMatch(const cv::Mat& descL, const cv::Mat& descR, const Planes& pla
     const uint8_t* refRow = ref.ptr<uint8_t>(v);
     const uint8_t* tgtRow = tgt.ptr<uint8_t>(v);
     int16_t* outRow = out.ptr<int16_t>(v);
-    const int gr = std::min(v / cfg.gridSize, grid.rows - 1);
+    const int gr = v / cfg.gridSize;
     for (int u = m; u <= W - 1 - m; ++u) {
+      const int16_t* cell = &grid.d[(size_t(gr) * grid.cols + u / cfg.gridSize) * grid.slots];
       const uint8_t* f = refRow + 16 * u;
       if (texture16(f) < cfg.matchTexture) continue;
       const Plane& plane = pl[owner[u]];
@@ -62,24 +72,30 @@ cv::Mat denseMatch(const cv::Mat& descL, const cv::Mat& descR, const Planes& pla
       const int lo = std::max(dp - R, 0), hi = std::min(dp + R, dispMax);
       // Target column of disparity d, legal iff it has a defined descriptor.
       auto target = [&](int d) { return left ? u - d : u + d; };
-      int best = 1 << 30, bestD = -1;
+      // Branch-free "first evaluated wins": the key orders by cost, then by evaluation position
+      // (grid slot k < 128, then 128 + d - lo for the plane range).
+      int best = kNoCandidate;
       // (a) grid candidates outside [lo, hi], ascending, SAD only.
-      const int gc = std::min(u / cfg.gridSize, grid.cols - 1);
       for (int k = 0; k < grid.slots; ++k) {
-        const int d = grid.at(gr, gc, k);
+        const int d = cell[k];
         if (d < 0) break;
         if (d >= lo && d <= hi) continue;
         const int t = target(d);
         if (t < m || t > W - 1 - m) continue;
-        const int e = sad16(f, tgtRow + 16 * t);
-        if (e < best) { best = e; bestD = d; }
+        best = std::min(best, ((sad16(f, tgtRow + 16 * t) + kCostOffset) << 8) | k);
       }
       // (b) plane range lo..hi ascending, SAD plus the prior when the plane is valid.
+      const int* prior = cfg.priorTable.data();
       for (int d = lo; d <= hi; ++d) {
         const int t = target(d);
         if (t < m || t > W - 1 - m) continue;
-        const int e = sad16(f, tgtRow + 16 * t) + (plane.valid ? cfg.priorTable[std::abs(d - dp)] : 0);
-        if (e < best) { best = e; bestD = d; }
+        const int e = sad16(f, tgtRow + 16 * t) + (plane.valid ? prior[std::abs(d - dp)] : 0);
+        best = std::min(best, ((e + kCostOffset) << 8) | (128 + d - lo));
+      }
+      int bestD = -1;
+      if (best != kNoCandidate) {
+        const int order = best & 255;
+        bestD = order >= 128 ? lo + order - 128 : cell[order];
       }
       outRow[u] = int16_t(bestD);
     }

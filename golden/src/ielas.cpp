@@ -1,6 +1,7 @@
 // The `ielas` pipeline: early stages (descriptor .. grid) and the late stages, plus the stage dumps.
 #include "ielas/ielas.hpp"
 
+#include <ctime>
 #include <stdexcept>
 #include <sys/stat.h>
 
@@ -18,26 +19,40 @@ namespace ielas {
 
 IelasFrame runIelas(const cv::Mat& left8, const cv::Mat& right8, const Config& cfg) {
   IelasFrame f;
+  std::clock_t last = std::clock();  // process CPU time: steadier than wall time on a shared machine
+  auto lap = [&](const char* stage) {
+    std::clock_t now = std::clock();
+    f.stageMs.emplace_back(stage, 1000.0 * static_cast<double>(now - last) / CLOCKS_PER_SEC);
+    last = now;
+  };
   f.W = left8.cols;
   f.H = left8.rows;
   f.descL = computeDescriptor(left8, cfg);
   f.descR = computeDescriptor(right8, cfg);
+  lap("descriptor");
   f.support = supportLattice(f.descL, f.descR, cfg);
+  lap("support");
   f.filtered = filterSupport(f.support, cfg);
   f.lattice = fillLattice(f.filtered, f.W, f.H, cfg);
+  lap("filter+interp");
   f.gridL = buildGrid(f.filtered, f.W, f.H, View::Left, cfg);
   f.gridR = buildGrid(f.filtered, f.W, f.H, View::Right, cfg);
+  lap("grid");
   // Late stages may still be stubs that throw; the early arrays stay usable either way.
   try {
     f.planes = computePlanes(f.lattice, f.W, f.H, cfg);
     f.hasPlanes = true;
+    lap("planes");
     f.denseL = denseMatch(f.descL, f.descR, f.planes, f.gridL, View::Left, cfg);
     f.denseR = denseMatch(f.descL, f.descR, f.planes, f.gridR, View::Right, cfg);
     f.hasDense = true;
+    lap("dense");
     lrCheck(f.denseL, f.denseR, f.lrL, f.lrR, cfg);
     f.hasLrCheck = true;
+    lap("lrcheck");
     f.disparity = postprocess(f.lrL, cfg);
     f.hasDisparity = true;
+    lap("post");
   } catch (const std::runtime_error& e) {
     f.lateError = e.what();
   }

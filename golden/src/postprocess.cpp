@@ -1,7 +1,6 @@
 // Post-processing in bounded streaming forms (docs/ALGORITHM.md "## Late stages", post).
 #include "ielas/postprocess.hpp"
 #include <algorithm>
-#include <array>
 #include <cstdlib>
 #include <stdexcept>
 #include <vector>
@@ -10,31 +9,33 @@ namespace ielas {
 
 void removeSmallSegments(cv::Mat& d, int simThreshold, int minSize, int windowRows) {
   const int H = d.rows, W = d.cols;
+  if (windowRows < 1) throw std::runtime_error("post: speckleWindowRows must be >= 1");
+  std::vector<int16_t> val(size_t(H) * W);
+  for (int v = 0; v < H; ++v) std::copy(d.ptr<int16_t>(v), d.ptr<int16_t>(v) + W, val.begin() + ptrdiff_t(v) * W);
   std::vector<int> label(size_t(H) * W, -1);
   std::vector<int> queue;
   queue.reserve(size_t(H) * W);
   std::vector<int> segSize, segMaxRow;
-  auto at = [&](int idx) { return int(d.at<int16_t>(idx / W, idx % W)); };
   for (int seed = 0; seed < H * W; ++seed) {
-    if (label[seed] >= 0 || at(seed) < 0) continue;
+    if (label[seed] >= 0 || val[seed] < 0) continue;
     const int id = int(segSize.size());
     queue.clear();
     queue.push_back(seed);
     label[seed] = id;
     int maxRow = 0;
+    // Breadth-first growth; the component does not depend on the visiting order (the relation is symmetric).
+    auto visit = [&](int ni, int dp) {
+      if (label[ni] >= 0 || val[ni] < 0 || std::abs(val[ni] - dp) > simThreshold) return;
+      label[ni] = id;
+      queue.push_back(ni);
+    };
     for (size_t q = 0; q < queue.size(); ++q) {
-      const int p = queue[q], v = p / W, u = p % W, dp = at(p);
+      const int p = queue[q], v = p / W, u = p - v * W, dp = val[p];
       maxRow = std::max(maxRow, v);
-      const int nb[4][2] = {{u - 1, v}, {u + 1, v}, {u, v - 1}, {u, v + 1}};
-      for (const auto& n : nb) {
-        if (n[0] < 0 || n[0] >= W || n[1] < 0 || n[1] >= H) continue;
-        const int ni = n[1] * W + n[0];
-        if (label[ni] >= 0) continue;
-        const int dn = at(ni);
-        if (dn < 0 || std::abs(dn - dp) > simThreshold) continue;
-        label[ni] = id;
-        queue.push_back(ni);
-      }
+      if (u > 0) visit(p - 1, dp);
+      if (u < W - 1) visit(p + 1, dp);
+      if (v > 0) visit(p - W, dp);
+      if (v < H - 1) visit(p + W, dp);
     }
     segSize.push_back(int(queue.size()));
     segMaxRow.push_back(maxRow);
@@ -135,32 +136,44 @@ void adaptiveMean(cv::Mat& d16) {
 
 namespace {
 
-inline int16_t median7Taps(const int16_t* x, ptrdiff_t stride) {
-  std::array<int16_t, 7> t;
-  for (int k = 0; k < 7; ++k) t[k] = x[k * stride];
-  std::nth_element(t.begin(), t.begin() + 3, t.end());
-  return t[3];
+// 4th smallest of 7: a 16-comparator sorting network (checked exhaustively on 0/1 inputs), branch-free.
+inline void sortPair(int16_t& a, int16_t& b) {
+  const int16_t lo = std::min(a, b), hi = std::max(a, b);
+  a = lo;
+  b = hi;
+}
+inline int16_t median7Of(int16_t t0, int16_t t1, int16_t t2, int16_t t3, int16_t t4, int16_t t5, int16_t t6) {
+  sortPair(t0, t6); sortPair(t2, t3); sortPair(t4, t5);
+  sortPair(t0, t2); sortPair(t1, t4); sortPair(t3, t6);
+  sortPair(t0, t1); sortPair(t2, t5); sortPair(t3, t4);
+  sortPair(t1, t2); sortPair(t4, t6);
+  sortPair(t2, t3); sortPair(t4, t5);
+  sortPair(t1, t2); sortPair(t3, t4); sortPair(t5, t6);
+  return t3;
 }
 
 }  // namespace
 
 void median7(cv::Mat& d16) {
   const int H = d16.rows, W = d16.cols;
-  const ptrdiff_t stride = ptrdiff_t(d16.step1());
   cv::Mat m = d16.clone();
   for (int v = 0; v < H; ++v) {
     const int16_t* in = d16.ptr<int16_t>(v);
     int16_t* out = m.ptr<int16_t>(v);
     for (int u = 3; u <= W - 4; ++u)
-      if (in[u] >= 0) out[u] = median7Taps(in + u - 3, 1);
+      if (in[u] >= 0) out[u] = median7Of(in[u - 3], in[u - 2], in[u - 1], in[u], in[u + 1], in[u + 2], in[u + 3]);
   }
   // Vertical pass on the horizontal result, only where the input pixel was valid; elsewhere the input stays.
   cv::Mat out = m.clone();
   for (int v = 3; v <= H - 4; ++v) {
     const int16_t* in = d16.ptr<int16_t>(v);
+    const int16_t* r[7];
+    for (int k = 0; k < 7; ++k) r[k] = m.ptr<int16_t>(v - 3 + k);
     int16_t* o = out.ptr<int16_t>(v);
-    for (int u = 0; u < W; ++u)
-      if (in[u] >= 0) o[u] = median7Taps(m.ptr<int16_t>(v - 3) + u, stride);
+    for (int u = 0; u < W; ++u) {
+      const int16_t med = median7Of(r[0][u], r[1][u], r[2][u], r[3][u], r[4][u], r[5][u], r[6][u]);
+      o[u] = in[u] >= 0 ? med : o[u];
+    }
   }
   out.copyTo(d16);
 }

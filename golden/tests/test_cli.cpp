@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "check.hpp"
+#include "ielas/image_io.hpp"
 #include "ielas/npy.hpp"
 
 using namespace ielas;
@@ -138,6 +139,22 @@ int main() {
   CHECK(diff.out.find("1 mismatching values") != std::string::npos);
   struct stat st;
   CHECK(stat((kTmp + "/dumpA/diff_support_L.png").c_str(), &st) == 0);
+  // match writes the same map as the dump's disparity.npy (d * 16, -1 invalid): PFM = value / 16, invalid < 0.
+  {
+    CHECK_EQ(run(kBin + " match --mode ielas --config small" + pair + " --out " + kTmp + "/m.pfm").exitCode, 0);
+    NpyArray disp = readNpy(kTmp + "/dumpA/disparity.npy");
+    cv::Mat pfm = readPfm(kTmp + "/m.pfm");
+    CHECK_EQ(pfm.rows, 32);
+    CHECK_EQ(pfm.cols, 64);
+    int mismatches = 0;
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 64; ++x) {
+        const int64_t v = disp.value(static_cast<size_t>(y) * 64 + x);
+        const float p = pfm.at<float>(y, x);
+        if (v < 0 ? !(p < 0) : p != static_cast<float>(v) / 16.0f) ++mismatches;
+      }
+    CHECK_EQ(mismatches, 0);
+  }
   mkdir((kTmp + "/empty").c_str(), 0777);
   CHECK(run(kCompare + " " + kTmp + "/dumpA " + kTmp + "/empty").exitCode != 0);
   return testExitCode("test_cli");

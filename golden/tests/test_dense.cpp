@@ -48,6 +48,14 @@ void setDesc(cv::Mat& desc, int u, int v, int byte0) {
 }
 
 // Left descriptor at (U,V) is 100 everywhere; right descriptor at U-d has byte 0 = 100 + sad[d].
+int matchLeftOn(const std::vector<int>& sad, const std::vector<int>& candidates, const Config& cfg, const cv::Mat& lat) {
+  cv::Mat descL = descImage(0), descR = descImage(0);
+  setDesc(descL, U, V, 100);
+  for (int d = 0; d <= 7; ++d) setDesc(descR, U - d, V, 100 + sad[size_t(d)]);
+  Planes planes = computePlanes(lat, W, H, cfg);
+  return denseMatch(descL, descR, planes, grid(candidates), View::Left, cfg).at<int16_t>(V, U);
+}
+
 int matchLeft(const std::vector<int>& sad, const std::vector<int>& candidates, const Config& cfg, int latticeValue) {
   cv::Mat descL = descImage(0), descR = descImage(0);
   setDesc(descL, U, V, 100);
@@ -70,6 +78,20 @@ int main() {
     Config noPrior = cfg;
     noPrior.priorTable.assign(8, 0);
     CHECK_EQ(matchLeft(sad, {}, noPrior, 3), 4);  // SAD alone
+  }
+  // Invalid plane: pixel (12,4) lies in triangle 1 of cell (0,2) (2*5 + 4*5 >= 25) whose bottom edge rises
+  // 3 -> 8 over 5 px (a = 1: invalid) and d_p = 3 + 2*1 = 5; range 3..7 is searched without the prior.
+  // SAD d5 = 4, d6 = 0: with the prior (flat lattice at 5) E(5) = -10 < E(6) = -9 -> 5; without it -> 6.
+  {
+    std::vector<int> sad = {50, 50, 50, 50, 50, 4, 0, 50};
+    CHECK_EQ(matchLeft(sad, {}, cfg, 5), 5);
+    cv::Mat lat(3, 5, CV_16S, cv::Scalar(3));
+    lat.at<int16_t>(0, 3) = 8;
+    lat.at<int16_t>(1, 3) = 8;
+    Planes planes = computePlanes(lat, W, H, cfg);
+    CHECK(!planes.left[(0 * 4 + 2) * 2 + 1].valid);
+    CHECK_EQ(planeValue(planes.left[(0 * 4 + 2) * 2 + 1], U, V), 5);
+    CHECK_EQ(matchLeftOn(sad, {}, cfg, lat), 6);
   }
   // Tie-break: grid candidates outside the range come first, ascending, then the range; strict "<".
   // Grid {0, 7}: E(0) = 20, E(7) = 20; range: E(1) = 22 + P[2] = 20, E(2) = 40 - 9, E(3) = 40 - 14, ...

@@ -186,6 +186,19 @@ int main() {
     CHECK(checkCoverage(p, View::Right) > 0);
     CHECK_EQ(checkCoverage(p, View::Left), 0);
   }
+  // Every right-view vertex left of column 0 (d = 20 > W-1): no pixel is covered, every pixel takes the cell
+  // row's last triangle (t = 1 of the last cell).
+  {
+    cv::Mat lat(3, 3, CV_16S, cv::Scalar(20));
+    Planes p = computePlanes(lat, 11, 8, cfg);
+    std::vector<int> owner;
+    rasterRow(p, View::Right, 2, owner);
+    CHECK_EQ(owner[0], 3);
+    CHECK_EQ(owner[10], 3);
+    rasterRow(p, View::Right, 6, owner);
+    CHECK_EQ(owner[5], 7);
+    CHECK_EQ(planeValue(p.right[7], 5, 6), 20);  // flat plane, extrapolated
+  }
   CHECK_THROWS(computePlanes(cv::Mat(2, 2, CV_16S, cv::Scalar(0)), 11, 8, cfg), "lattice must be");
   return testExitCode("test_planes");
 }

@@ -108,6 +108,19 @@ int main() {
     cv::Mat four = mat(1, 7, {-1, -1, -1, 48, -1, 16, 16});
     median7(four);
     CHECK_EQ(four.at<int16_t>(0, 3), -1);  // four invalid taps invalidate the pixel (as libelas's -10)
+    // Every 0/16 pattern of 7 taps: the 4th smallest is 16 iff at least four taps are 16 (0/1 principle).
+    int wrong = 0;
+    for (int bits = 0; bits < 128; ++bits) {
+      cv::Mat row(1, 7, CV_16S);
+      int ones = 0;
+      for (int k = 0; k < 7; ++k) {
+        row.at<int16_t>(0, k) = int16_t((bits >> k) & 1 ? 16 : 0);
+        ones += (bits >> k) & 1;
+      }
+      median7(row);
+      wrong += row.at<int16_t>(0, 3) != (ones >= 4 ? 16 : 0);
+    }
+    CHECK_EQ(wrong, 0);
     cv::Mat col = mat(9, 1, {16, -1, -1, 48, 32, -1, 80, 64, 0});
     median7(col);
     CHECK_EQ(col.at<int16_t>(3, 0), 16);
@@ -130,5 +143,7 @@ int main() {
     checkEqual(out, mat(2, 6, {32, 40, 48, 48, -1, -1, 32, 32, 48, 48, -1, -1}), __LINE__);
   }
   CHECK_THROWS(postprocess(cv::Mat(2, 2, CV_32F), Config()), "CV_16S");
+  cv::Mat any = mat(1, 2, {1, 1});
+  CHECK_THROWS(removeSmallSegments(any, 1, 4, 0), "speckleWindowRows");
   return testExitCode("test_postprocess");
 }

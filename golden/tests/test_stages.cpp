@@ -97,6 +97,20 @@ void testSupportLatticeAndLrCheck() {
   // L/R check: flatten the right centre descriptor (13, 5) (texture 0): the right match fails, so does the support.
   descR.at<cv::Vec<uint8_t, 16>>(5, 13) = cv::Vec<uint8_t, 16>::all(128);
   CHECK_EQ(supportLattice(descL, descR, c).at<int16_t>(1, 4), -1);
+  // A disagreeing right match: left columns 21 and 25 (rows 3 and 7) copy right columns 11 and 15, so the right
+  // reference at 13 finds cost(10) = 0 -> dR = 10, while the left match at 20 (columns 18, 22) still gives 7.
+  // |7 - 10| = 3 > lrThreshold 2 -> rejected; with lrThreshold 3 accepted.
+  makeDescriptors(descL, descR);
+  for (int row : {3, 7}) {
+    descL.ptr<uint8_t>(row)[21 * 16] = descR.ptr<uint8_t>(row)[11 * 16];
+    descL.ptr<uint8_t>(row)[25 * 16] = descR.ptr<uint8_t>(row)[15 * 16];
+  }
+  CHECK_EQ(supportMatch(descL, descR, 20, 5, View::Left, c), 7);
+  CHECK_EQ(supportMatch(descL, descR, 13, 5, View::Right, c), 10);
+  CHECK_EQ(supportLattice(descL, descR, c).at<int16_t>(1, 4), -1);
+  c.lrThreshold = 3;
+  CHECK_EQ(supportLattice(descL, descR, c).at<int16_t>(1, 4), 7);
+  c.lrThreshold = 2;
   // The check's tolerance: with lrThreshold 0 an equal right disparity still passes.
   makeDescriptors(descL, descR);
   c.lrThreshold = 0;
@@ -265,6 +279,22 @@ void testGrid() {
   CHECK(cell(clipped, 0, 0) == std::vector<int>({0, 1, -1, -1}));
   CHECK(cell(clipped, 0, 2) == std::vector<int>({30, 31, -1, -1}));
   CHECK(cell(clipped, 1, 1) == std::vector<int>({0, 1, 30, 31}));
+
+  // Measurement-only corner points (MIDDLEBURY): one support (5, 5, d=5) is every corner's nearest point, so the
+  // corner (59, 0) marks 4..6 in cell (0,2), which is empty without corners. Right grid: TR' = (64, 0, 5) maps
+  // to x = 59 -> cell (0,2) too.
+  Config m = presetConfig("middlebury", 31, 60, 40);
+  cv::Mat one(9, 13, CV_16S, cv::Scalar(-1));
+  one.at<int16_t>(1, 1) = 5;
+  CHECK(cell(buildGrid(one, 60, 40, View::Left, m), 0, 2) == std::vector<int>(20, -1));
+  m.gridCorners = "nearest";
+  std::vector<int> expected(20, -1);
+  expected[0] = 4, expected[1] = 5, expected[2] = 6;
+  CHECK(cell(buildGrid(one, 60, 40, View::Left, m), 0, 2) == expected);
+  CHECK(cell(buildGrid(one, 60, 40, View::Right, m), 1, 2) == expected);
+  Config rob = presetConfig("robotics", 31, 60, 40);  // addCorners 0: the knob has no effect
+  rob.gridCorners = "nearest";
+  CHECK(cell(buildGrid(one, 60, 40, View::Left, rob), 0, 2) == std::vector<int>(20, -1));
 }
 
 }  // namespace

@@ -3,7 +3,8 @@
 //
 //   ielas-eval score --disp D.pfm|D.png|D.npy --gt G.pfm|G.png [--gt-scale S] [--mask M.png]
 //                    [--exclude-mask M.png] [--name PAIR] [--region LABEL] [--time SECONDS] [--header]
-//                    [--colour C.png] [--error E.png] [--colour-max N] [--ipol-out F.pfm]
+//                    [--colour C.png] [--error E.png] [--colour-max N (default: GT maximum)]
+//                    [--ipol-out F.pfm]
 //   ielas-eval header
 //   ielas-eval crop --in F --out G --width W --height H      (centred window; PNG kept bit for bit, PFM too)
 //   ielas-eval colour --disp D --out C.png [--colour-max N]
@@ -407,7 +408,11 @@ int runScore(const Args& args) {
   if (args.header) std::cout << csvHeader << "\n";
   std::cout << csvLine(args.get("--name", "pair"), args.get("--region", "all"), s, args.number("--time", 0.0))
             << std::endl;
-  if (args.has("--colour")) writePng(args.get("--colour"), colourise(disp, args.number("--colour-max", 0.0)));
+  if (args.has("--colour")) {
+    double gtMax = 0;  // default scale: the largest true disparity, so every run of a pair shares one scale
+    cv::minMaxLoc(gt, nullptr, &gtMax);
+    writePng(args.get("--colour"), colourise(disp, args.number("--colour-max", gtMax)));
+  }
   if (args.has("--error")) writePng(args.get("--error"), errorImage(disp, gt, region));
   if (args.has("--ipol-out")) writePfm(args.get("--ipol-out"), kittiInterpolate(disp));
   return 0;

@@ -21,6 +21,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <stdexcept>
@@ -166,7 +167,11 @@ int main(int argc, char** argv) {
       else if (key == "--width") width = parseInt(key, value);
       else if (key == "--height") height = parseInt(key, value);
       else if (key == "--seed") seed = parseInt(key, value);
-      else if (key == "--noise") noise = std::stod(value);
+      else if (key == "--noise") {
+        char* end = nullptr;
+        noise = std::strtod(value.c_str(), &end);
+        if (value.empty() || *end != '\0' || noise < 0) throw SynthError("--noise wants a sigma >= 0, not " + value);
+      }
       else throw SynthError("unknown option " + key);
     }
     if (outDir.empty()) throw SynthError("missing --out DIR");

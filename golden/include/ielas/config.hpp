@@ -38,6 +38,9 @@ struct Config {
   // Golden-model-only knob (optional JSON key): which grid candidates survive when a cell has more than
   // storedDisparities. "smallest" (the default, docs/ALGORITHM.md) or "votes".
   std::string gridKeep = "smallest";
+  // Measurement-only knob (optional JSON key): "none" (default: MIDDLEBURY's add_corners is dropped) or
+  // "nearest" (libelas's corner points added to the grids).
+  std::string gridCorners = "none";
 
   int windowRadius() const { return windowSize / 2; }
   // Lattice nodes along an axis of `pixels`: 0, step, 2 step, ... plus a last node at pixels-1 when off-step.

@@ -36,6 +36,18 @@ inline int sad16Inline(const uint8_t* a, const uint8_t* b) {
 #endif
 }
 
+// Sum of |byte - 128| over one descriptor, inline for the same reason.
+inline int textureInline(const uint8_t* desc) {
+#ifdef __SSE2__
+  const __m128i s = _mm_sad_epu8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(desc)), _mm_set1_epi8(-128));
+  return _mm_cvtsi128_si32(s) + _mm_extract_epi16(s, 4);
+#else
+  int sum = 0;
+  for (int k = 0; k < 16; ++k) sum += desc[k] > 128 ? desc[k] - 128 : 128 - desc[k];
+  return sum;
+#endif
+}
+
 struct SupportPoint {
   int u, v, d;  // left-image pixel and disparity
 };

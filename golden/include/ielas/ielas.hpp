@@ -1,6 +1,8 @@
 // The whole `ielas` mode: every stage in order, with the arrays the dumps hold (INTERFACES.md §3).
 #pragma once
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -22,6 +24,7 @@ struct IelasFrame {
   cv::Mat denseL, denseR, lrL, lrR;  // H x W CV_16S, -1 = invalid
   cv::Mat disparity;                 // H x W CV_16S, disparity * 16, -1 = invalid
   std::string lateError;
+  std::vector<std::pair<std::string, double>> stageMs;  // CPU time per stage, in order (for --time)
 };
 
 // Runs the pipeline on an 8-bit grey pair that already passed the size checks.

@@ -41,7 +41,7 @@ void findMatch(const MatchContext& m, int u, int v, float a, float b, float c, b
   if (u < kDescriptorMargin || u >= m.width - kDescriptorMargin || v < 0 || v >= m.height) return;
   const int row = std::max(std::min(v, m.height - 3), 2);
   const uint8_t* f = m.descRef->ptr<uint8_t>(row) + 16 * u;
-  if (descriptorTexture(f) < m.matchTexture) return;
+  if (textureInline(f) < m.matchTexture) return;
   const uint8_t* tgtRow = m.descTgt->ptr<uint8_t>(row);
 
   const int dPlane = static_cast<int>(a * static_cast<float>(u) + b * static_cast<float>(v) + c);

@@ -144,9 +144,16 @@ void adaptiveMean(cv::Mat& disp) {
     float* out = scratch.ptr<float>(v);
     adaptiveMeanLine([in](int k) { return in[k]; }, [out](int k) -> float& { return out[k]; }, width);
   }
-  for (int u = 3; u < width - 3; ++u)
-    adaptiveMeanLine([&scratch, u](int k) { return scratch.at<float>(k, u); },
-                     [&disp, u](int k) -> float& { return disp.at<float>(k, u); }, height);
+  // The vertical pass runs on the transposed maps so that it walks memory row by row.
+  cv::Mat scratchT, dispT;
+  cv::transpose(scratch, scratchT);
+  cv::transpose(disp, dispT);
+  for (int u = 3; u < width - 3; ++u) {
+    const float* in = scratchT.ptr<float>(u);
+    float* out = dispT.ptr<float>(u);
+    adaptiveMeanLine([in](int k) { return in[k]; }, [out](int k) -> float& { return out[k]; }, height);
+  }
+  cv::transpose(dispT, disp);
 }
 
 void median(cv::Mat& disp) {

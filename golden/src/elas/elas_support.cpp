@@ -20,7 +20,7 @@ int matchSupportPoint(const cv::Mat& descL, const cv::Mat& descR, int u, int v, 
   const cv::Mat& dRef = ref == View::Left ? descL : descR;
   const cv::Mat& dTgt = ref == View::Left ? descR : descL;
   const uint8_t* centre = dRef.ptr<uint8_t>(v) + 16 * u;
-  if (descriptorTexture(centre) < cfg.supportTexture) return -1;
+  if (textureInline(centre) < cfg.supportTexture) return -1;
 
   const int dLo = 0;
   const int dHi = ref == View::Left ? std::min(cfg.dispMax, u - margin) : std::min(cfg.dispMax, width - u - margin);

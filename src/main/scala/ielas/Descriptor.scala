@@ -195,8 +195,12 @@ object Descriptor {
   /** Cycles beyond latencyRows * W: m + 1 latency columns, the s1 and output registers, one cycle of margin. */
   def cycleSlack(p: ElasParams): Int = p.descriptorMargin + 4
 
-  private[ielas] def latencyOf(p: ElasParams, w: UInt, bits: Int): UInt =
-    (w * p.descriptorMargin.U +& (p.descriptorMargin + 1).U)(bits - 1, 0)
+  /** m*w + m + 1 as shifted adds (m is a small constant): Yosys would otherwise spend a DSP on it. */
+  private[ielas] def latencyOf(p: ElasParams, w: UInt, bits: Int): UInt = {
+    val m = p.descriptorMargin
+    val times = (0 until log2Ceil(m + 1)).filter(i => ((m >> i) & 1) == 1).map(i => (w << i).pad(bits))
+    (times.reduce(_ +& _) +& (m + 1).U)(bits - 1, 0)
+  }
 
   /** The ELAS byte layout with offsets of magnitude 2 replaced by r: (is du, dx, dy) per byte (docs/ALGORITHM.md). */
   def layout(r: Int): Seq[(Boolean, Int, Int)] = Seq(

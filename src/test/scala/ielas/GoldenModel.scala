@@ -20,6 +20,14 @@ object GoldenModel {
     bin
   }
 
+  /** The project's own synthetic scene (ielas-synth, next to ielas-golden): left.pgm and right.pgm in `dir`. */
+  def synthScene(dir: Path): (Path, Path) = {
+    val synth = ready.resolveSibling("ielas-synth")
+    val rc = Seq(synth.toString, "--out", dir.toString).!(ProcessLogger(_ => (), System.err.println(_)))
+    if (rc != 0) throw new IllegalStateException(s"golden: $synth failed ($rc)")
+    (dir.resolve("left.pgm"), dir.resolve("right.pgm"))
+  }
+
   /** Dumps every stage for the pair under `dir` (PGMs written there too) and returns `dir`. */
   def dump(config: String, left: GrayImage, right: GrayImage, dir: Path): Path = {
     Files.createDirectories(dir)

@@ -73,16 +73,18 @@ object StreamTester {
     var received = 0L
     var pending: Option[I] = None
     var offered = false
+    var lastValid: Option[Boolean] = None
+    var lastReady: Option[Boolean] = None
     while (received < expectedOutputs || pending.nonEmpty || inputs.hasNext) {
       if (cycles >= maxCycles)
         throw new AssertionError(s"$what: timeout after $cycles cycles with $received of $expectedOutputs outputs " +
           s"(seed ${seed})")
       if (pending.isEmpty && inputs.hasNext) pending = Some(inputs.next())
       val offer = pending.nonEmpty && rnd.nextDouble() >= traffic.inputGap
-      if (offer) { pokeBeat(in.bits, pending.get); in.valid.poke(true.B); offered = true }
-      else in.valid.poke(false.B)
+      if (offer) { pokeBeat(in.bits, pending.get); offered = true }
+      if (!lastValid.contains(offer)) { in.valid.poke(offer.B); lastValid = Some(offer) } // pokes cost time: only changes
       val ready = rnd.nextDouble() >= traffic.outputStall
-      out.ready.poke(ready.B)
+      if (!lastReady.contains(ready)) { out.ready.poke(ready.B); lastReady = Some(ready) }
       if (offer && in.ready.peek().litToBoolean) pending = None
       if (ready && out.valid.peek().litToBoolean) {
         if (received < expectedOutputs) sink(received, peekBeat(out.bits))
@@ -111,12 +113,18 @@ object StreamTester {
     dut.io.frameWidth.poke(w.U)
     dut.io.frameHeight.poke(h.U)
     dut.io.clearError.poke(false.B)
+    var lastSof: Option[Boolean] = None
+    var lastEol: Option[Boolean] = None
     val beats = frames.iterator.flatMap { case (l, r) =>
       Iterator.range(0, w * h).map(i => (l.pixels(i) & 0xff, r.pixels(i) & 0xff, i == 0, i % w == w - 1))
     }
     run[PixelPair, Framed[DescriptorPair], (Int, Int, Boolean, Boolean), DescriptorBeat](
       dut.clock, dut.io.in, beats,
-      (bits, b) => { bits.left.poke(b._1.U); bits.right.poke(b._2.U); bits.sof.poke(b._3.B); bits.eol.poke(b._4.B) },
+      (bits, b) => {
+        bits.left.poke(b._1.U); bits.right.poke(b._2.U)
+        if (!lastSof.contains(b._3)) { bits.sof.poke(b._3.B); lastSof = Some(b._3) }
+        if (!lastEol.contains(b._4)) { bits.eol.poke(b._4.B); lastEol = Some(b._4) }
+      },
       dut.io.out, frames.length.toLong * w * h,
       o => DescriptorBeat(o.data.left.peek().litValue, o.data.right.peek().litValue, o.sof.peek().litToBoolean,
         o.eol.peek().litToBoolean, o.eof.peek().litToBoolean),

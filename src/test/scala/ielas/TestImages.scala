@@ -29,7 +29,7 @@ object TestImages {
   /** The shared data directory (override with -Dielas.data=DIR). */
   def dataDir: Path = Paths.get(sys.props.getOrElse("ielas.data", "../shared/data"))
 
-  /** Reads an 8-bit image; colour is converted as OpenCV COLOR_BGR2GRAY does (fixed point, 14-bit weights). */
+  /** Reads an 8-bit image; colour is converted as OpenCV COLOR_BGR2GRAY does (fixed point, 15-bit weights, checked against OpenCV 4.6). */
   def read(path: Path): GrayImage = {
     if (!Files.isReadable(path)) throw new IllegalArgumentException(s"image: cannot read $path")
     if (path.toString.toLowerCase.endsWith(".pgm")) return readPgm(path)
@@ -46,14 +46,14 @@ object TestImages {
       if (bits > 8) throw new IllegalArgumentException(s"image: $path is deeper than 8 bits")
       for (y <- 0 until h; x <- 0 until w) {
         val (r, g, b) = (raster.getSample(x, y, 0), raster.getSample(x, y, 1), raster.getSample(x, y, 2))
-        out(y * w + x) = ((b * 1868 + g * 9617 + r * 4899 + 8192) >> 14).toByte
+        out(y * w + x) = ((b * 3735 + g * 19235 + r * 9798 + 16384) >> 15).toByte
       }
     } else {
       // palette or other layouts: through sRGB, then the same weights
       for (y <- 0 until h; x <- 0 until w) {
         val rgb = img.getRGB(x, y)
         val (r, g, b) = ((rgb >> 16) & 0xff, (rgb >> 8) & 0xff, rgb & 0xff)
-        out(y * w + x) = ((b * 1868 + g * 9617 + r * 4899 + 8192) >> 14).toByte
+        out(y * w + x) = ((b * 3735 + g * 19235 + r * 9798 + 16384) >> 15).toByte
       }
     }
     GrayImage(w, h, out)

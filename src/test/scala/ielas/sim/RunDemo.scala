@@ -15,8 +15,13 @@ object RunDemo {
       "usage: RunDemo [--config NAME|FILE.json] [--left L --right R] [--gt GT]", required = false)
     val p = ConfigJson.load(opts.getOrElse("--config", "kitti"))
     val data = TestImages.dataDir
-    val leftPath = opts.get("--left").map(Paths.get(_)).getOrElse(data.resolve("kitti2012/training/image_0/000070_10.png"))
-    val rightPath = opts.get("--right").map(Paths.get(_)).getOrElse(data.resolve("kitti2012/training/image_1/000070_10.png"))
+    val kittiLeft = data.resolve("kitti2012/training/image_0/000070_10.png")
+    val kittiRight = data.resolve("kitti2012/training/image_1/000070_10.png")
+    // without ../shared/data: the project's own synthetic scene
+    lazy val synth = GoldenModel.synthScene(Paths.get("build", "run", "synth").toAbsolutePath)
+    val useSynth = !opts.contains("--left") && !Files.isReadable(kittiLeft)
+    val leftPath = opts.get("--left").map(Paths.get(_)).getOrElse(if (useSynth) synth._1 else kittiLeft)
+    val rightPath = opts.get("--right").map(Paths.get(_)).getOrElse(if (useSynth) synth._2 else kittiRight)
     val (left, right) = Cli.readPair(p, leftPath, rightPath)
     val (w, h) = (left.width, left.height)
     val outDir = Paths.get("build", "run").toAbsolutePath
