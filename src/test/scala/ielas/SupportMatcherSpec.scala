@@ -17,6 +17,18 @@ class SupportMatcherSpec extends AnyFlatSpec {
   it should "match the golden support lattice at config small, with the throughput bound" in {
     runSuite("small")
   }
+  it should "schedule a node within ElasParams' per-point budget at every named configuration" in {
+    for (p <- ElasParams.named) {
+      val worst = SupportMatcher.nodeCycles(p, p.dispMax, p.dispMax) // 1 + ceil + 1 + ceil + 1
+      val lanes = p.supportLanesUsed
+      assert(worst == 2 * ((p.dispMax + lanes) / lanes) + 3, s"${p.name}: schedule $worst")
+      assert(worst <= 2 * ((p.dispMax + lanes) / lanes) + ElasParams.supportOverheadCycles && worst <= p.supportCyclesPerPoint,
+        s"${p.name}: $worst cycles per node > budget ${p.supportCyclesPerPoint}")
+    }
+  }
+  it should "match the golden support lattice at config small-w7 (windowSize 7: 3 row slots, 16 banks)" in {
+    runSuite("small-w7", extensive = false)
+  }
   it should "match the golden support lattice at kitti width (1242x16, dispMax 255), with the throughput bound" in {
     runKittiWidth()
   }
@@ -135,10 +147,10 @@ object SupportMatcherSpec {
     }
   }
 
-  def runSuite(config: String): Unit = {
+  def runSuite(config: String, extensive: Boolean = true): Unit = {
     val p = ElasParams.byName(config)
     val rnd = new Random(seed ^ config.hashCode ^ 0x5a)
-    val all = cases(rnd)
+    val all = if (extensive) cases(rnd) else cases(rnd).filter(c => !c.label.startsWith("noise") && !c.label.startsWith("flat"))
     val tmp = tmpDir(s"support-$config")
     val expected = all.zipWithIndex.map { case (c, i) => golden(p, c, tmp.resolve(f"golden$i%02d")) }
     val (w, h) = (p.maxWidth, p.maxHeight)
