@@ -36,6 +36,24 @@ object SupportFilterSpec {
     Case(s"mixed shifts ${shifts.mkString("/")} ${w}x$h", left, right)
   }
 
+  /** Independent noise except in random 12x12 squares that match with a shift of 10, 15, 16 or 21: clusters of
+    * supports whose neighbours agree (|15 - 10| = 5 = inconThreshold) or just do not (|16 - 10| = 6), with
+    * agreeing counts around inconMinSupport.
+    */
+  def sparsePair(w: Int, h: Int, rnd: Random): Case = {
+    val wide = TestImages.noise(w + 32, h, rnd)
+    val left = GrayImage(w, h, Array.tabulate(w * h)(i => wide(i % w, i / w).toByte))
+    val squares = Seq.fill(w * h / 700)((rnd.nextInt(w), rnd.nextInt(h), Seq(10, 15, 16, 21)(rnd.nextInt(4))))
+    val right = GrayImage(w, h, Array.tabulate(w * h) { i =>
+      val (x, y) = (i % w, i / w)
+      squares.find { case (sx, sy, _) => x + 21 >= sx && x + 21 < sx + 12 && y >= sy && y < sy + 12 } match {
+        case Some((_, _, d)) if x + d < wide.width => wide(x + d, y).toByte
+        case _ => rnd.nextInt(256).toByte
+      }
+    })
+    Case(s"sparse squares ${w}x$h", left, right)
+  }
+
   def golden(p: ElasParams, c: Case, dir: java.nio.file.Path): NpyArray = {
     GoldenModel.dump(p.name, c.left, c.right, dir)
     val a = NpyArray.read(dir.resolve("support_filtered_L.npy"))
@@ -48,7 +66,7 @@ object SupportFilterSpec {
     val p = ElasParams.byName(config)
     val rnd = new Random(seed ^ config.hashCode ^ 0xf1)
     val all = SupportMatcherSpec.cases(rnd) ++ Seq(mixedPair(128, 64, rnd), mixedPair(101, 50, rnd),
-      shiftedPair(32, 16, 2, rnd))
+      shiftedPair(32, 16, 2, rnd), sparsePair(128, 64, rnd), sparsePair(128, 64, rnd), sparsePair(90, 60, rnd))
     val tmp = tmpDir(s"filter-$config")
     val expected = all.zipWithIndex.map { case (c, i) => golden(p, c, tmp.resolve(f"golden$i%02d")) }
     val unfiltered = all.indices.map { i => // supports before the filter, for the report only
