@@ -48,6 +48,20 @@ object SupportMatcherSpec {
     Case(s"shifted texture ${w}x$h by $shift", wide.crop(0, 0, w, h), wide.crop(shift, 0, w, h)) // R(x - d) = L(x)
   }
 
+  /** Columns repeat with period 8 and the right view is shifted by 3: cost 0 at d = 3, 11, 19, ..., so E1 = E2 = 0
+    * and every such node must be rejected (strict ratio test, E2 counting the tied minimum). With `jitter`, small
+    * noise makes E1 and E2 close but not equal: ratios near the threshold.
+    */
+  def periodicPair(w: Int, h: Int, jitter: Int, rnd: Random): Case = {
+    val tile = TestImages.noise(8, h, rnd)
+    def view(shift: Int) = GrayImage(w, h, Array.tabulate(w * h) { i =>
+      val (x, y) = (i % w, i / w)
+      val n = if (jitter > 0) rnd.nextInt(2 * jitter + 1) - jitter else 0
+      (tile((x + shift) % 8, y) + n).max(0).min(255).toByte
+    })
+    Case(s"periodic texture (period 8, jitter $jitter) ${w}x$h", view(0), view(3))
+  }
+
   def cases(rnd: Random): Seq[Case] = {
     val (kl, kr) = TestImages.kitti2012
     val (tl, tr) = TestImages.middleburyTsukuba
@@ -59,7 +73,7 @@ object SupportMatcherSpec {
       Case("Middlebury tsukuba crop 128x64 at (120,110)", tl.crop(120, 110, 128, 64), tr.crop(120, 110, 128, 64)),
       Case("Middlebury cones crop 111x57 at (200,150)", cl.crop(200, 150, 111, 57), cr.crop(200, 150, 111, 57)),
       shiftedPair(128, 64, 9, rnd), shiftedPair(97, 41, 20, rnd), shiftedPair(32, 16, 3, rnd),
-      noise(128, 64), noise(33, 17), flat(40, 20))
+      noise(128, 64), noise(33, 17), flat(40, 20), periodicPair(128, 64, 0, rnd), periodicPair(128, 64, 6, rnd))
   }
 
   /** Expected lattice of a pair from the golden model's dump. */
