@@ -17,6 +17,8 @@ lazy val root = (project in file("."))
     addCompilerPlugin("org.chipsalliance" % "chisel-plugin" % chiselVersion cross CrossVersion.full),
     Compile / run / mainClass := Some("ielas.Main"),
     Compile / run / fork := true,
+    // Forked programs print straight to stdout (no "[info] " prefix), so report lines start their own line.
+    outputStrategy := Some(StdoutOutput),
     Test / fork := true,
     Test / parallelExecution := false,
     Test / javaOptions ++= Seq("-Xss8m", "-Xmx4g"),

@@ -22,7 +22,12 @@ import verilog_modules  # noqa: E402
 
 # Bump when anything below changes what a cached result means (Yosys options, parsing, depth rules).
 FLOW_VERSION = "1"
-SYNTH_CMD = "synth_xilinx -family xc7 -flatten -noiopad -noclkbuf"
+SYNTH_BASE = "synth_xilinx -family xc7 -flatten -noiopad -noclkbuf"
+# LUT mapper. Default lut6: classic ABC without MUXF7/F8 "wide LUTs". With wide LUTs, ABC's choices depend on the
+# surrounding netlist, so a stage alone and the same stage in the flattened top differed by 5 % in LUTs (small);
+# -abc9 agrees best but Yosys 0.23's ABC9_OPS aborts on the tsukuba Descriptor (YosysHQ/yosys#3384).
+MAPPERS = {"lut6": " -nowidelut", "widelut": "", "abc9": " -abc9"}
+SYNTH_CMD = SYNTH_BASE + MAPPERS["lut6"]
 PAPER = {"LUT": 144.8e3, "FF": 74.6e3, "BRAM36eq": 469.5}  # iELAS paper, whole accelerator at 1242x375
 
 # LUT-RAM/SRL primitives and how many LUT sites each uses (7-series).
@@ -261,7 +266,10 @@ def main():
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--strict", action="store_true", help="exit 3 when a line buffer is not in block RAM")
     ap.add_argument("--keep-netlist", action="store_true")
+    ap.add_argument("--mapper", choices=sorted(MAPPERS), default="lut6", help="Yosys LUT mapping")
     args = ap.parse_args()
+    global SYNTH_CMD
+    SYNTH_CMD = SYNTH_BASE + MAPPERS[args.mapper]
     try:
         design = verilog_modules.Design(args.verilog)
         if args.top not in design.file_of:

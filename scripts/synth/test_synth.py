@@ -150,6 +150,29 @@ endmodule
 """
 
 
+class BramCheckTest(unittest.TestCase):
+    def test_only_sync_read_memories_must_be_bram(self):
+        mems = [{"path": "a", "sync_read": True, "mapped": "BRAM"},
+                {"path": "b", "sync_read": True, "mapped": "LUTRAM"},
+                {"path": "c", "sync_read": False, "mapped": "FF"}]
+        b = flow.bram_check({"memories": mems})
+        self.assertEqual((b["sync_read_memories"], b["in_bram"], [m["path"] for m in b["not_in_bram"]], b["pass"]),
+                         (2, 1, ["b"], False))
+
+
+TINY_SYNC = """module Tiny(input clock, input [3:0] waddr, input [3:0] raddr, input [7:0] wdata, input we,
+  output [7:0] out);
+  reg [7:0] Memory[0:15];
+  reg [3:0] _R0_addr_d0;
+  always @(posedge clock) begin
+    _R0_addr_d0 <= raddr;
+    if (we) Memory[waddr] <= wdata;
+  end
+  assign out = Memory[_R0_addr_d0];
+endmodule
+"""
+
+
 class DesignTest(unittest.TestCase):
     def setUp(self):
         self.dir = tempfile.mkdtemp(prefix="synth-test-")
@@ -201,6 +224,22 @@ class DesignTest(unittest.TestCase):
         self.assertEqual(r.returncode, 1)
         self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
         self.assertIn("syntax error", r.stderr)
+
+    @unittest.skipUnless(shutil.which("yosys"), "yosys not installed")
+    def test_strict_fails_on_a_line_buffer_outside_bram(self):
+        # 16 x 8 bits: Yosys puts a memory this small in LUT-RAM, so the line-buffer check must fail.
+        tiny = os.path.join(self.dir, "tiny")
+        os.makedirs(tiny)
+        with open(os.path.join(tiny, "Tiny.sv"), "w") as fh:
+            fh.write(TINY_SYNC)
+        env = dict(os.environ, SYNTH_OUT=os.path.join(self.dir, "out"), SYNTH_TOP="Tiny", SYNTH_STRICT="1")
+        r = subprocess.run([os.path.join(HERE, "..", "synth.sh"), "t", tiny], capture_output=True, text=True, env=env)
+        self.assertEqual(r.returncode, 3, r.stdout + r.stderr)
+        with open(os.path.join(self.dir, "out", "resources.json")) as fh:
+            report = json.load(fh)
+        self.assertEqual([(m["path"], m["sync_read"], m["mapped"]) for m in report["top"]["memories"]],
+                         [("Memory", True, "LUTRAM")])
+        self.assertFalse(report["bram_check"]["pass"])
 
     @unittest.skipUnless(shutil.which("yosys"), "yosys not installed")
     def test_end_to_end_top_and_modules(self):

@@ -11,16 +11,17 @@ object VerilogEmitter {
     "--split-verilog"
   )
 
+  /** One module per file in `dir`. Only firtool writes files (--split-verilog -o dir): Chisel 6.7's
+    * emitSystemVerilog rejects --target-dir, and emitSystemVerilogFile would overwrite the top's file with the
+    * (empty) string it returns.
+    */
   def emit(gen: => chisel3.RawModule, dir: Path): Unit = {
     java.nio.file.Files.createDirectories(dir)
-    _root_.circt.stage.ChiselStage.emitSystemVerilog(gen, Array("--target-dir", dir.toString), firtoolOptions ++ Array("-o", dir.toString))
+    _root_.circt.stage.ChiselStage.emitSystemVerilog(gen, Array.empty[String], firtoolOptions ++ Array("-o", dir.toString))
   }
 
   def emitTop(p: ElasParams, dir: Path): Unit = {
-    java.nio.file.Files.createDirectories(dir)
-    // Only firtool writes files (--split-verilog -o dir): emit()'s --target-dir is rejected by Chisel 6.7's
-    // emitSystemVerilog, and emitSystemVerilogFile would overwrite IElas.sv with the (empty) returned string.
-    _root_.circt.stage.ChiselStage.emitSystemVerilog(new IElas(p), Array.empty[String], firtoolOptions ++ Array("-o", dir.toString))
+    emit(new IElas(p), dir)
     // Verilator -Wall waivers for firtool's output, one reason each (INTERFACES.md §5).
     val waivers = Seq(
       "// firtool keeps the full width of sums whose low bits the Sobel's arithmetic >> 2 drops, and of column",

@@ -139,8 +139,30 @@ object DescriptorSpec {
         choppyBound(p, a.left.width, a.left.height, 2), "back to back")
       assert(b2b.board.ok, b2b.board.report)
       assert(!peek(dut.io.error), "error raised by legal frames")
-      if (extensive) illegalSizes(p, dut, a, rnd)
+      if (extensive) {
+        illegalSizes(p, dut, a, rnd)
+        shortFrameResync(p, dut, a, rnd)
+      }
     }
+  }
+
+  /** A frame cut short by 3 rows, then a whole frame: the stage must not hang. It completes the short frame with
+    * the next frame's pixels (this stage does not check framing yet), drops the rest up to the next start of frame,
+    * and the frame after that comes out bit-exact.
+    */
+  def shortFrameResync(p: ElasParams, dut: IElas, good: Case, rnd: Random): Unit = {
+    val (w, h) = (good.left.width, good.left.height)
+    val short = w * (h - 3)
+    val beats = Iterator.range(0, short).map(i => (i, i == 0)) ++ Iterator.range(0, w * h).map(i => (i, i == 0))
+    run[PixelPair, Framed[DescriptorPair], (Int, Boolean), Int](dut.clock, dut.io.in, beats,
+      (bits, b) => { poke(bits.left, good.left.pixels(b._1) & 0xff); poke(bits.right, good.right.pixels(b._1) & 0xff)
+        poke(bits.sof, b._2); poke(bits.eol, b._1 % w == w - 1) },
+      dut.io.out, w.toLong * h, _ => 0, (_, _) => (), Traffic(0.2, 0.2), rnd, choppyBound(p, w, h, 2), "short frame")
+    val board = expectation(p, good, 93)
+    streamDescriptorFrames(dut, Seq((good.left, good.right)), Traffic(0.2, 0.2), rnd, board.check,
+      choppyBound(p, w, h), "after a short frame")
+    assert(board.board.ok, board.board.report)
+    println(s"  ${p.name}: a short frame is completed, the next frame dropped, the one after it is bit-exact")
   }
 
   /** A frame narrower than 32 or wider than maxWidth is flagged and dropped; the next legal frame is intact. */
