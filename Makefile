@@ -80,10 +80,13 @@ run: golden verilog ## the main job: Verilog for kitti, then a stereo pair throu
 	$(call SBT_RUN,"Test/runMain ielas.sim.RunDemo --config $(CONFIG) $(if $(LEFT),--left $(abspath $(LEFT))) $(if $(RIGHT),--right $(abspath $(RIGHT))) $(if $(GT),--gt $(abspath $(GT)))")
 
 # ---- tests ----
-test: deps test-golden test-hw ## everything CI runs (small configurations; < 60 min cold on 2 cores)
+test: deps test-golden test-hw test-synth ## everything CI runs (small configurations; < 60 min cold on 2 cores)
 	@$(MAKE) --no-print-directory verilog CONFIG=small
 	@$(MAKE) --no-print-directory verilog CONFIG=kitti
 	@echo "make test: all passed"
+
+test-synth: deps-synth
+	python3 scripts/synth/test_synth.py
 
 test-hw: golden
 	$(call SBT_RUN,test)
