@@ -40,3 +40,37 @@ object FrameSize {
   def isLegal(p: ElasParams, width: UInt, height: UInt): Bool =
     width >= minWidth.U && width <= p.maxWidth.U && height >= minHeight.U && height <= p.maxHeight.U
 }
+
+/** One grid cell of both views' grid vectors (stage `grid`): up to storedDisparities candidates each, ascending,
+  * -1 = unused slot. Cells stream in grid raster order (eol = last cell of a grid row, eof = last cell).
+  */
+class GridCellPair(p: ElasParams) extends Bundle {
+  val left = Vec(p.storedDisparities, SInt((p.dispBits + 1).W))
+  val right = Vec(p.storedDisparities, SInt((p.dispBits + 1).W))
+}
+
+/** One plane (stage `planes`, docs/ALGORITHM.md): d(u, v) = (c + a (u - anchorU) + b (v - anchorV) + 2^15) >> 16. */
+class PlaneCoeffs(p: ElasParams) extends Bundle {
+  val a = SInt(32.W)
+  val b = SInt(32.W)
+  val c = SInt(32.W)
+  val anchorU = SInt((p.colBits + 1).W) // right view: x0 - D_BL, may be negative
+  val anchorV = UInt(p.rowBits.W)
+  val valid = Bool()
+}
+
+/** One lattice cell (stage `planes`): triangle 0 = (TL, TR, BL) and 1 = (TR, BR, BL) in both views, plus the four
+  * corner disparities the rasteriser needs for the right view (TL, TR, BL, BR). Cells stream in raster order over
+  * (latticeRows - 1) x (latticeCols - 1) (eol = last cell of a cell row, eof = last cell).
+  */
+class PlaneCell(p: ElasParams) extends Bundle {
+  val left = Vec(2, new PlaneCoeffs(p))
+  val right = Vec(2, new PlaneCoeffs(p))
+  val corners = Vec(4, UInt(p.dispBits.W))
+}
+
+/** Both views' disparities at one pixel (stages `dense` and `lrcheck`), -1 = invalid; raster order. */
+class DisparityPair(p: ElasParams) extends Bundle {
+  val left = SInt((p.dispBits + 1).W)
+  val right = SInt((p.dispBits + 1).W)
+}
