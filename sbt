@@ -18,7 +18,9 @@ if [ ! -s "$jar" ]; then
   fi
   mv "$jar.part" "$jar"
 fi
-exec java ${SBT_JAVA_OPTS:--Xms1g -Xmx6g -Xss8m -XX:ReservedCodeCacheSize=256m -XX:+UseParallelGC} \
+args=()
+for a in "$@"; do [ "$a" = "-batch" ] || args+=("$a"); done  # sbt is always batch here (no terminal)
+exec java ${SBT_JAVA_OPTS:--Xms512m -Xmx3g -Xss8m -XX:ReservedCodeCacheSize=256m -XX:+UseParallelGC} \
   -Dsbt.supershell=false -Dsbt.server.autostart=false -Dsbt.log.noformat=true \
   ${SBT_USER_HOME:+-Duser.home=$SBT_USER_HOME} \
-  -jar "$jar" "$@"
+  -jar "$jar" ${args[@]+"${args[@]}"}
