@@ -20,7 +20,7 @@ if [ ! -s "$jar" ]; then
 fi
 args=()
 for a in "$@"; do [ "$a" = "-batch" ] || args+=("$a"); done  # sbt is always batch here (no terminal)
-exec java ${SBT_JAVA_OPTS:--Xms512m -Xmx3g -Xss8m -XX:ReservedCodeCacheSize=256m -XX:+UseParallelGC} \
+exec java ${SBT_JAVA_OPTS:--Xms512m -Xmx4g -Xss8m -XX:ReservedCodeCacheSize=256m -XX:+UseParallelGC} \
   -Dsbt.supershell=false -Dsbt.server.autostart=false -Dsbt.log.noformat=true \
   ${SBT_USER_HOME:+-Duser.home=$SBT_USER_HOME} \
   -jar "$jar" ${args[@]+"${args[@]}"}
