@@ -1,6 +1,7 @@
 package ielas
 
 import chisel3._
+import chisel3.util._
 
 /** One beat of the stereo pixel input, AXI4-Stream video style (INTERFACES.md §4):
   * tdata = {left, right}, tuser(0) = start of frame (first pixel), tlast = end of line (last pixel of each line).
@@ -73,4 +74,21 @@ class PlaneCell(p: ElasParams) extends Bundle {
 class DisparityPair(p: ElasParams) extends Bundle {
   val left = SInt((p.dispBits + 1).W)
   val right = SInt((p.dispBits + 1).W)
+}
+
+/** Hands every beat of `in` to all `n` outputs. Each output may take it in a different cycle; the beat leaves `in`
+  * once every output has taken it, so a stalled consumer holds back only the beats it has not yet seen.
+  */
+class StreamFork[T <: Data](gen: T, n: Int) extends Module {
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(gen))
+    val out = Vec(n, Decoupled(gen))
+  })
+  val taken = RegInit(VecInit(Seq.fill(n)(false.B)))
+  for (k <- 0 until n) {
+    io.out(k).valid := io.in.valid && !taken(k)
+    io.out(k).bits := io.in.bits
+  }
+  io.in.ready := (0 until n).map(k => taken(k) || io.out(k).ready).reduce(_ && _)
+  for (k <- 0 until n) taken(k) := Mux(io.in.fire, false.B, taken(k) || io.out(k).fire)
 }

@@ -4,13 +4,13 @@ import org.scalatest.flatspec.AnyFlatSpec
 
 import scala.util.Random
 
-/** The descriptor stage through the `IElas` top: one Verilator build per configuration, many images and seeds
+/** The descriptor stage through its [[DescriptorChain]]: one Verilator build per configuration, many images and seeds
   * through it, random input gaps and output back-pressure, every byte compared with hand values or the golden dump.
   */
 class DescriptorSpec extends AnyFlatSpec {
   import DescriptorSpec._
 
-  behavior of "Descriptor (IElas top)"
+  behavior of "Descriptor (DescriptorChain)"
 
   it should "match hand values and the golden model at config small (windowSize 5), with the throughput bound" in {
     runSuite("small", extensive = true)
@@ -111,7 +111,7 @@ object DescriptorSpec {
     val rnd = new Random(seed ^ config.hashCode)
     val all = cases(p, rnd, extensive)
     val boards = all.zipWithIndex.map { case (c, i) => expectation(p, c, i) } // golden runs before the build
-    simulate(new IElas(p), tmpDir(s"descriptor-$config")) { dut =>
+    simulate(new DescriptorChain(p), tmpDir(s"descriptor-$config")) { dut =>
       reset(dut)
       for ((c, board) <- all.zip(boards)) {
         val traffic = Traffic(rnd.nextDouble() * 0.5, rnd.nextDouble() * 0.5)
@@ -150,7 +150,7 @@ object DescriptorSpec {
     * the next frame's pixels (this stage does not check framing yet), drops the rest up to the next start of frame,
     * and the frame after that comes out bit-exact.
     */
-  def shortFrameResync(p: ElasParams, dut: IElas, good: Case, rnd: Random): Unit = {
+  def shortFrameResync(p: ElasParams, dut: DescriptorChain, good: Case, rnd: Random): Unit = {
     val (w, h) = (good.left.width, good.left.height)
     val short = w * (h - 3)
     val beats = Iterator.range(0, short).map(i => (i, i == 0)) ++ Iterator.range(0, w * h).map(i => (i, i == 0))
@@ -166,7 +166,7 @@ object DescriptorSpec {
   }
 
   /** A frame narrower than 32 or wider than maxWidth is flagged and dropped; the next legal frame is intact. */
-  def illegalSizes(p: ElasParams, dut: IElas, good: Case, rnd: Random): Unit = {
+  def illegalSizes(p: ElasParams, dut: DescriptorChain, good: Case, rnd: Random): Unit = {
     for ((w, h) <- Seq((31, 16), (32, 15), (p.maxWidth + 1, 16), (32, p.maxHeight + 1))) {
       val img = TestImages.noise(w, h, rnd)
       poke(dut.io.frameWidth, w); poke(dut.io.frameHeight, h)

@@ -36,10 +36,10 @@ class IElasSpec extends AnyFlatSpec {
     }
   }
 
-  it should "report the line buffer as 2m pixel rows of both views by maxWidth" in {
+  it should "report the descriptor line buffer as 2m pixel rows of both views by maxWidth" in {
     // kitti: windowSize 5 -> r = 2, m = 3: 6 rows x 16 bits (left + right) = 96 bits per column, 1242 columns
-    assert(IElas.memorySummary(ElasParams.byName("kitti")).map(m => (m.rows, m.bitsPerRow)) == Seq((1242, 96)))
+    assert(Descriptor.memorySummary(ElasParams.byName("kitti")).map(m => (m.rows, m.bitsPerRow)) == Seq((1242, 96)))
     // small-w7: r = 3, m = 4: 8 rows x 16 bits = 128 bits, 128 columns
-    assert(IElas.memorySummary(ElasParams.byName("small-w7")).map(m => (m.rows, m.bitsPerRow)) == Seq((128, 128)))
+    assert(Descriptor.memorySummary(ElasParams.byName("small-w7")).map(m => (m.rows, m.bitsPerRow)) == Seq((128, 128)))
   }
 }

@@ -102,10 +102,10 @@ object StreamTester {
   /** One output beat of the descriptor stream: both descriptors (byte k at bits 8k+7..8k) and the framing. */
   case class DescriptorBeat(left: BigInt, right: BigInt, sof: Boolean, eol: Boolean, eof: Boolean)
 
-  /** Streams same-size frames back to back into the `IElas` top (frameWidth/frameHeight held at their size) and
+  /** Streams same-size frames back to back into a [[DescriptorChain]] (frameWidth/frameHeight held at their size) and
     * hands each output beat to `sink` with its flat index over all frames. Returns the cycle count of [[run]].
     */
-  def streamDescriptorFrames(dut: IElas, frames: Seq[(GrayImage, GrayImage)], traffic: Traffic, rnd: Random,
+  def streamDescriptorFrames(dut: DescriptorChain, frames: Seq[(GrayImage, GrayImage)], traffic: Traffic, rnd: Random,
       sink: (Long, DescriptorBeat) => Unit, maxCycles: Long, what: String): Long = {
     val (w, h) = (frames.head._1.width, frames.head._1.height)
     require(frames.forall { case (l, r) => l.width == w && r.width == w && l.height == h && r.height == h },

@@ -46,7 +46,7 @@ case class DescriptorRun(width: Int, height: Int, left: Array[Byte], right: Arra
 }
 
 object DescriptorRun {
-  /** Streams one frame through the IElas top with no stalls; the Verilator build is cached per configuration. */
+  /** Streams one frame through the DescriptorChain with no stalls; the Verilator build is cached per configuration. */
   def run(p: ElasParams, left: GrayImage, right: GrayImage): DescriptorRun = {
     val (w, h) = (left.width, left.height)
     val l = new Array[Byte](w * h * 16)
@@ -55,7 +55,7 @@ object DescriptorRun {
     var seconds = 0.0
     var framing: Option[String] = None
     val workDir = Paths.get("build", "sim-cache", s"${p.name}-descriptor").toAbsolutePath
-    StreamTester.simulate(new IElas(p), workDir, cache = true) { dut =>
+    StreamTester.simulate(new DescriptorChain(p), workDir, cache = true) { dut =>
       StreamTester.reset(dut)
       val t0 = System.nanoTime()
       cycles = StreamTester.streamDescriptorFrames(dut, Seq((left, right)), StreamTester.noStall, new Random(0),
