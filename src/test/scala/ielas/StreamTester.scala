@@ -65,11 +65,11 @@ object StreamTester {
   /** Streams `inputs` into `in` and hands the first `expectedOutputs` transfers of `out` to `sink` (in order, with
     * their index). Returns the cycles from the first offered input to the last expected output transfer, inclusive.
     * `pokeBeat` sets the input bits; `peekBeat` reads the output bits (called only on a transfer).
-    * Throws when `maxCycles` pass first.
+    * Throws when `maxCycles` pass first. `onCycle` runs once per cycle before the clock edge (side channels).
     */
   def run[D <: Data, E <: Data, I, O](clock: Clock, in: DecoupledIO[D], inputs: Iterator[I], pokeBeat: (D, I) => Unit,
       out: DecoupledIO[E], expectedOutputs: Long, peekBeat: E => O, sink: (Long, O) => Unit,
-      traffic: Traffic, rnd: Random, maxCycles: Long, what: String = "stream"): Long = {
+      traffic: Traffic, rnd: Random, maxCycles: Long, what: String = "stream", onCycle: () => Unit = () => ()): Long = {
     var cycles = 0L
     var received = 0L
     var pending: Option[I] = None
@@ -92,6 +92,7 @@ object StreamTester {
         else throw new AssertionError(s"$what: more than the $expectedOutputs expected outputs (seed $seed)")
         received += 1
       }
+      onCycle()
       clock.step()
       if (offered) cycles += 1
     }
