@@ -24,7 +24,7 @@ import chisel3.util._
   *
   * `aborted`: exactly one beat per frame put out, as early as it is known: `true` at the frame's first malformed
   * line (so the output side can end that frame's output after its current line), else `false` with the frame's
-  * last pixel. The beats wait in a [[FrameGuard.abortedDepth]]-entry queue; the guard stalls while it is full, so the
+  * last pixel. The beats wait in a [[FrameGuard.abortedDepth]]-entry register queue; the guard stalls while it is full, so the
   * consumer must take them. `outWidth`/`outHeight` give the size of the frame being put out (the sampled ports), stable
   * for the whole frame.
   *
@@ -67,11 +67,19 @@ class FrameGuard(p: ElasParams) extends Module {
 
   val outValid = RegInit(false.B)
   val outBits = Reg(new PixelPair)
-  val abortedQ = Module(new Queue(Bool(), FrameGuard.abortedDepth))
-  io.aborted <> abortedQ.io.deq
+  // The aborted beats wait in two registers (a Queue would be a LUT-RAM): head goes out, tail waits behind it.
+  val headValid = RegInit(false.B)
+  val headBit = Reg(Bool())
+  val tailValid = RegInit(false.B)
+  val tailBit = Reg(Bool())
+  val abortedEnqReady = !tailValid
+  val abortedEnq = WireDefault(false.B)
+  val abortedEnqBit = WireDefault(false.B)
+  io.aborted.valid := headValid
+  io.aborted.bits := headBit
 
   // ---- one step per cycle: emit a padding pixel, or take one beat (input or held SOF) ----
-  val canStep = (!outValid || io.out.ready) && abortedQ.io.enq.ready
+  val canStep = (!outValid || io.out.ready) && abortedEnqReady
   val padding = active && (padLine || padFrame)
   io.in.ready := canStep && !padding && !heldValid
   val srcValid = heldValid || io.in.valid
@@ -148,8 +156,20 @@ class FrameGuard(p: ElasParams) extends Module {
 
   // The frame's one aborted beat: at its first malformed line, else with its last pixel.
   val flaggedNow = flagged && !starting
-  abortedQ.io.enq.valid := canStep && (malformed || frameEnd) && !flaggedNow
-  abortedQ.io.enq.bits := malformed
+  abortedEnq := canStep && (malformed || frameEnd) && !flaggedNow
+  abortedEnqBit := malformed
+  when(io.aborted.fire) {
+    headValid := tailValid
+    headBit := tailBit
+    tailValid := false.B
+  }
+  when(abortedEnq) {
+    when(!headValid || (io.aborted.fire && !tailValid)) {
+      headValid := true.B; headBit := abortedEnqBit
+    }.otherwise {
+      tailValid := true.B; tailBit := abortedEnqBit
+    }
+  }
   flagged := flaggedNow || (canStep && (malformed || frameEnd))
   when(malformed) { setError := true.B }
 
