@@ -84,12 +84,18 @@ object FrameGuardSpec {
     )
   }
 
-  case class Expected(beats: IndexedSeq[(OutBeat, String)], aborted: Seq[(Boolean, String)], error: Boolean)
+  /** `deadline`: for an aborted frame, the output count by which its beat must be out: the end of its first bad
+    * (or missing) line.
+    */
+  case class Expected(beats: IndexedSeq[(OutBeat, String)], aborted: Seq[(Boolean, String)], error: Boolean,
+      deadline: Seq[Long] = Nil)
 
   /** What the guard must put out, from the frames' description (INTERFACES.md §4 and the FrameGuard rules). */
   def expected(p: ElasParams, frames: Seq[FrameIn]): Expected = {
     val beats = IndexedSeq.newBuilder[(OutBeat, String)]
     val aborted = Seq.newBuilder[(Boolean, String)]
+    val deadline = Seq.newBuilder[Long]
+    var start = 0L
     var error = false
     for ((f, k) <- frames.zipWithIndex) {
       val legal = f.width >= 32 && f.width <= p.maxWidth && f.height >= 16 && f.height <= p.maxHeight
@@ -104,10 +110,13 @@ object FrameGuardSpec {
         }
         val bad = rows.length < f.height || rows.exists(l => l.pixels.length != f.width || !l.eol)
         aborted += ((bad, s"frame $k '${f.label}'"))
+        val firstBad = (0 until f.height).find(y => y >= rows.length || rows(y).pixels.length != f.width || !rows(y).eol)
+        deadline += start + (firstBad.getOrElse(f.height - 1) + 1).toLong * f.width
+        start += f.width.toLong * f.height
         if (bad || f.lines.length > f.height) error = true
       }
     }
-    Expected(beats.result(), aborted.result(), error)
+    Expected(beats.result(), aborted.result(), error, deadline.result())
   }
 
   /** The input beats: sof on each frame's first pixel, the frame's size on the ports at SOF and garbage elsewhere. */
@@ -138,9 +147,11 @@ object FrameGuardSpec {
     val exp = cutAt.fold(expected(p, frames)) { n => val e = expected(p, frames); Expected(e.beats.take(n), Nil, false) }
     val board = new Scoreboard(s"frameguard [$label]")
     val abortedGot = scala.collection.mutable.ArrayBuffer[Boolean]()
+    val takenAt = scala.collection.mutable.ArrayBuffer[Long]() // outputs received when each aborted beat was taken
+    var received = 0L
     def takeAborted(ready: Boolean): Unit = {
       poke(dut.io.aborted.ready, ready)
-      if (ready && peek(dut.io.aborted.valid)) abortedGot += peek(dut.io.aborted.bits)
+      if (ready && peek(dut.io.aborted.valid)) { abortedGot += peek(dut.io.aborted.bits); takenAt += received }
     }
     val in = inputBeats(frames, junk, rnd)
     var last: Option[InBeat] = None
@@ -162,6 +173,7 @@ object FrameGuardSpec {
         board.check(s"$at right", e.right, got.right)
         board.check(s"$at sof", if (e.sof) 1 else 0, if (got.sof) 1 else 0)
         board.check(s"$at eol", if (e.eol) 1 else 0, if (got.eol) 1 else 0)
+        received = i + 1
       },
       traffic, rnd, 20L * (in.length + exp.beats.length) + 1000, label,
       onCycle = () => takeAborted(rnd.nextDouble() >= abortStall))
@@ -170,6 +182,11 @@ object FrameGuardSpec {
     val aborts = new Scoreboard(s"frameguard aborted [$label]")
     aborts.check("aborted beat count", exp.aborted.length, abortedGot.length)
     for (((e, at), got) <- exp.aborted.zip(abortedGot)) aborts.check(s"$at aborted", if (e) 1 else 0, if (got) 1 else 0)
+    // With the aborted channel always ready, a malformed frame's beat is out by the end of its first bad line
+    // (the output side cuts the frame after its current line).
+    if (abortStall == 0.0)
+      for ((((e, at), d), t) <- exp.aborted.zip(exp.deadline).zip(takenAt) if e)
+        aborts.check(s"$at aborted beat taken after output (at the latest)", d, if (t > d) t else d)
     val errorBoard = new Scoreboard(s"frameguard error [$label]")
     errorBoard.check("error bit after the segment", if (exp.error) 1 else 0, if (peek(dut.io.error)) 1 else 0)
     for (b <- Seq(board, aborts, errorBoard)) assert(b.ok, b.report)
@@ -199,10 +216,11 @@ object FrameGuardSpec {
         Traffic(0.2, 0.2), 0.2, rnd, "junk before the first SOF after reset")
 
       // Every case once, in order (a cut frame with the frame whose SOF cuts it), then random segments.
-      for (f <- closedFrames(rnd)) runSegment(dut, p, Seq(f), Nil, Traffic(rnd.nextDouble() * 0.5, rnd.nextDouble() * 0.5), 0.3, rnd, f.label)
+      for (f <- closedFrames(rnd)) runSegment(dut, p, Seq(f), Nil, Traffic(rnd.nextDouble() * 0.5, rnd.nextDouble() * 0.5), 0.0, rnd, f.label)
       // the cut frames with their following frame, as one segment each
       for (Seq(cut, next) <- cutFrames(rnd).map(c => Seq(c, closedFrames(rnd).head)))
-        runSegment(dut, p, Seq(cut, next), Nil, Traffic(0.3, 0.3), 0.3, rnd, s"${cut.label}, then ${next.label}")
+        for (abortStall <- Seq(0.0, 0.5))
+          runSegment(dut, p, Seq(cut, next), Nil, Traffic(0.3, 0.3), abortStall, rnd, s"${cut.label}, then ${next.label}")
       for (i <- 0 until 8)
         runSegment(dut, p, segment(rnd, 6), Nil, Traffic(rnd.nextDouble() * 0.5, rnd.nextDouble() * 0.5),
           rnd.nextDouble() * 0.8, rnd, s"random segment $i")
