@@ -25,7 +25,7 @@ import chisel3.util._
   *
   * Throughput: 1 pixel per clock; N input pixels of frames of one size with no stalls leave in
   * N + W + [[LrCheck.cycleSlack]] cycles. When a frame follows a more than twice as wide one, its first rows fill
-  * the two free slots before the wide last row has left, so the input waits once, for at most the wide width
+  * the two free slots before the wide last row has left, so the input waits once, for at most the wide width plus cycleSlack
   * ([[LrCheck.narrowingSlack]]); a 4th slot would not remove that, only a buffer addressed by pixel instead of by row.
   * Back-pressure: the output register stalls the whole pipeline (memory reads are re-issued at the held addresses,
   * which is safe because a slot is never written while any of its pixels is in the pipeline); the input stalls only
@@ -204,7 +204,7 @@ object LrCheck {
   /** Extra input wait, once, when a frame of width `narrow` follows one of width `wide`: rows narrower than half
     * the previous row fill the other two slots before the wide row has left the pipeline. Bounded by `wide`.
     */
-  def narrowingSlack(wide: Int, narrow: Int): Int = if (2 * narrow < wide + cycleSlack) wide else 0
+  def narrowingSlack(wide: Int, narrow: Int): Int = if (2 * narrow < wide + cycleSlack) wide + cycleSlack else 0
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("LrCheck", "rows", p.maxWidth, slots * 2 * (p.dispBits + 1),
