@@ -51,6 +51,7 @@ object StreamTester {
   /** Plain port access for single signals (reset, configuration inputs, status outputs). */
   def poke(port: UInt, value: BigInt): Unit = port.poke(value.U)
   def poke(port: Bool, value: Boolean): Unit = port.poke(value.B)
+  def poke(port: SInt, value: BigInt): Unit = port.poke(value.S)
   def peek(port: UInt): BigInt = port.peek().litValue
   def peek(port: SInt): BigInt = port.peek().litValue
   def peek(port: Bool): Boolean = port.peek().litToBoolean
@@ -64,11 +65,11 @@ object StreamTester {
   /** Streams `inputs` into `in` and hands the first `expectedOutputs` transfers of `out` to `sink` (in order, with
     * their index). Returns the cycles from the first offered input to the last expected output transfer, inclusive.
     * `pokeBeat` sets the input bits; `peekBeat` reads the output bits (called only on a transfer).
-    * Throws when `maxCycles` pass first.
+    * Throws when `maxCycles` pass first. `onCycle` runs once per cycle before the clock edge (side channels).
     */
   def run[D <: Data, E <: Data, I, O](clock: Clock, in: DecoupledIO[D], inputs: Iterator[I], pokeBeat: (D, I) => Unit,
       out: DecoupledIO[E], expectedOutputs: Long, peekBeat: E => O, sink: (Long, O) => Unit,
-      traffic: Traffic, rnd: Random, maxCycles: Long, what: String = "stream"): Long = {
+      traffic: Traffic, rnd: Random, maxCycles: Long, what: String = "stream", onCycle: () => Unit = () => ()): Long = {
     var cycles = 0L
     var received = 0L
     var pending: Option[I] = None
@@ -91,6 +92,7 @@ object StreamTester {
         else throw new AssertionError(s"$what: more than the $expectedOutputs expected outputs (seed $seed)")
         received += 1
       }
+      onCycle()
       clock.step()
       if (offered) cycles += 1
     }

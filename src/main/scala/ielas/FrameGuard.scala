@@ -1,0 +1,195 @@
+package ielas
+
+import chisel3._
+import chisel3.util._
+
+/** The top's input framing check (INTERFACES.md §4 "Malformed frames"): turns the raw pixel input into a clean
+  * stream in which every frame is exactly W x H (W x H = frameWidth x frameHeight sampled at its start of frame),
+  * with sof on its first pixel and eol on the last pixel of each line, so no later stage ever sees a malformed
+  * frame.
+  *
+  * Rules (each malformed case raises the sticky `error`; a frame that is put out but malformed is marked aborted):
+  *  - frame size at SOF outside 32x16..maxWidth x maxHeight ([[FrameSize.isLegal]]): the whole frame is dropped up
+  *    to the next SOF (no output frame, no `aborted` beat);
+  *  - a line too short (eol before column W - 1): the line is padded to W with zero pixels (the input waits);
+  *  - a line too long (no eol on column W - 1): column W - 1 goes out with eol, the extra pixels are dropped up to
+  *    and including the input's eol;
+  *  - SOF in mid-frame (too few lines, or a line cut short): the SOF beat is held, the rest of the current frame is
+  *    padded with zero pixels (the input waits), then the held beat starts the new frame with the frame size sampled
+  *    when it arrived;
+  *  - lines beyond frameHeight: dropped up to the next SOF. The frame was already put out in full, so they raise
+  *    `error` but cannot mark it aborted;
+  *  - pixels before the first SOF after reset are dropped silently (a source may start mid-frame).
+  * `error` is cleared by reset or a one-cycle `clearError` pulse; a new error in the same cycle wins.
+  *
+  * `aborted`: exactly one beat per frame put out, as early as it is known: `true` at the frame's first malformed
+  * line (so the output side can end that frame's output after its current line), else `false` with the frame's
+  * last pixel. The beats wait in a [[FrameGuard.abortedDepth]]-entry register queue; the guard stalls while it is full, so the
+  * consumer must take them. `outWidth`/`outHeight` give the size of the frame being put out (the sampled ports), stable
+  * for the whole frame.
+  *
+  * Good frames pass with no added bubbles: 1 pixel per clock, frames of any legal sizes back to back, through one
+  * output register (N pixels leave in N + [[FrameGuard.cycleSlack]] cycles with no stalls). No memory: registers only
+  * (the held SOF beat, the sampled size, the position, the output register).
+  */
+class FrameGuard(p: ElasParams) extends Module {
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(new PixelPair))
+    val frameWidth = Input(UInt(p.colBits.W))
+    val frameHeight = Input(UInt(p.rowBits.W))
+    val clearError = Input(Bool())
+    val error = Output(Bool())
+    val out = Decoupled(new PixelPair)
+    val aborted = Decoupled(Bool())
+    /** The size of the frame being put out (sampled at its SOF). */
+    val outWidth = Output(UInt(p.colBits.W))
+    val outHeight = Output(UInt(p.rowBits.W))
+  })
+
+  // ---- state ----
+  val active = RegInit(false.B)     // inside a frame being put out: (x, y) is its next output pixel
+  val afterFrame = RegInit(false.B) // a frame ended and no SOF came yet: stray pixels are lines beyond frameHeight
+  val x = RegInit(0.U(p.colBits.W))
+  val y = RegInit(0.U(p.rowBits.W))
+  val width = RegInit(FrameSize.minWidth.U(p.colBits.W))
+  val height = RegInit(FrameSize.minHeight.U(p.rowBits.W))
+  val padLine = RegInit(false.B)  // zero pixels to the end of the line
+  val padFrame = RegInit(false.B) // zero pixels to the end of the frame (a SOF beat is held)
+  val dropLine = RegInit(false.B) // dropping a long line's extra pixels up to its eol
+  val flagged = RegInit(false.B)  // this frame's aborted beat has gone out
+  val error = RegInit(false.B)
+
+  // the SOF beat that arrived in mid-frame, and the frame size sampled with it
+  val heldValid = RegInit(false.B)
+  val held = Reg(new PixelPair)
+  val heldWidth = Reg(UInt(p.colBits.W))
+  val heldHeight = Reg(UInt(p.rowBits.W))
+
+  val outValid = RegInit(false.B)
+  val outBits = Reg(new PixelPair)
+  // The aborted beats wait in two registers (a Queue would be a LUT-RAM): head goes out, tail waits behind it.
+  val headValid = RegInit(false.B)
+  val headBit = Reg(Bool())
+  val tailValid = RegInit(false.B)
+  val tailBit = Reg(Bool())
+  val abortedEnqReady = !tailValid
+  val abortedEnq = WireDefault(false.B)
+  val abortedEnqBit = WireDefault(false.B)
+  io.aborted.valid := headValid
+  io.aborted.bits := headBit
+
+  // ---- one step per cycle: emit a padding pixel, or take one beat (input or held SOF) ----
+  val canStep = (!outValid || io.out.ready) && abortedEnqReady
+  val padding = active && (padLine || padFrame)
+  io.in.ready := canStep && !padding && !heldValid
+  val srcValid = heldValid || io.in.valid
+  val src = Mux(heldValid, held, io.in.bits)
+  val srcWidth = Mux(heldValid, heldWidth, io.frameWidth)
+  val srcHeight = Mux(heldValid, heldHeight, io.frameHeight)
+
+  val setError = WireDefault(false.B)
+  val malformed = WireDefault(false.B) // this step finds the current frame malformed
+  val frameEnd = WireDefault(false.B)  // this step puts out the frame's last pixel
+  val starting = WireDefault(false.B)  // this step starts a frame (its aborted beat is still to come)
+
+  /** Puts out pixel (px, py) of a frame of width w, height h; returns whether it is the line's last. */
+  def emit(left: UInt, right: UInt, px: UInt, py: UInt, w: UInt, h: UInt): Bool = {
+    val lastCol = px === w - 1.U
+    outValid := true.B
+    outBits.left := left
+    outBits.right := right
+    outBits.sof := px === 0.U && py === 0.U
+    outBits.eol := lastCol
+    x := Mux(lastCol, 0.U, px + 1.U)
+    y := Mux(lastCol, py + 1.U, py)
+    when(lastCol && py === h - 1.U) {
+      frameEnd := true.B
+      active := false.B
+      afterFrame := true.B
+      padLine := false.B
+      padFrame := false.B
+    }
+    lastCol
+  }
+
+  when(io.out.fire) { outValid := false.B }
+  when(canStep) {
+    when(padding) {
+      val lastCol = emit(0.U, 0.U, x, y, width, height)
+      when(lastCol) { padLine := false.B }
+    }.elsewhen(srcValid) {
+      heldValid := false.B
+      when(src.sof && active) { // mid-frame SOF: hold it, pad out the current frame first
+        heldValid := true.B
+        held := src
+        heldWidth := srcWidth
+        heldHeight := srcHeight
+        padFrame := true.B
+        dropLine := false.B
+        malformed := true.B
+      }.elsewhen(src.sof) { // start of frame
+        dropLine := false.B
+        when(FrameSize.isLegal(p, srcWidth, srcHeight)) {
+          active := true.B
+          afterFrame := false.B
+          starting := true.B
+          width := srcWidth
+          height := srcHeight
+          emit(src.left, src.right, 0.U, 0.U, srcWidth, srcHeight) // never the line's last: W >= 32
+          when(src.eol) { padLine := true.B; malformed := true.B }
+        }.otherwise {
+          active := false.B
+          afterFrame := false.B // the rest of this frame is dropped silently
+          setError := true.B
+        }
+      }.elsewhen(dropLine) {
+        when(src.eol) { dropLine := false.B }
+      }.elsewhen(active) {
+        val lastCol = emit(src.left, src.right, x, y, width, height)
+        when(src.eol && !lastCol) { padLine := true.B; malformed := true.B } // too short
+        when(!src.eol && lastCol) { dropLine := true.B; malformed := true.B } // too long
+      }.otherwise { // outside any frame
+        when(afterFrame) { setError := true.B }
+      }
+    }
+  }
+
+  // The frame's one aborted beat: at its first malformed line, else with its last pixel.
+  val flaggedNow = flagged && !starting
+  abortedEnq := canStep && (malformed || frameEnd) && !flaggedNow
+  abortedEnqBit := malformed
+  when(io.aborted.fire) {
+    headValid := tailValid
+    headBit := tailBit
+    tailValid := false.B
+  }
+  when(abortedEnq) {
+    when(!headValid || (io.aborted.fire && !tailValid)) {
+      headValid := true.B; headBit := abortedEnqBit
+    }.otherwise {
+      tailValid := true.B; tailBit := abortedEnqBit
+    }
+  }
+  flagged := flaggedNow || (canStep && (malformed || frameEnd))
+  when(malformed) { setError := true.B }
+
+  when(io.clearError) { error := false.B }
+  when(setError) { error := true.B }
+
+  io.out.valid := outValid
+  io.out.bits := outBits
+  io.error := error
+  io.outWidth := width
+  io.outHeight := height
+}
+
+object FrameGuard {
+  /** Aborted beats the guard can be ahead of their consumer. */
+  val abortedDepth: Int = 2
+
+  /** Cycles beyond N for N good pixels with no stalls: the output register. */
+  val cycleSlack: Int = 2
+
+  /** Registers only. */
+  def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq.empty
+}
