@@ -29,7 +29,13 @@ class PlanesSpec extends AnyFlatSpec {
   }
 
   it should "match the golden planes at config small (real, random and hand-built lattices)" in {
-    runSuite("small")
+    runSuite(ElasParams.byName("small"), extensive = true)
+  }
+
+  it should "match the golden planes at small with candidateStep 2 (4 engines, 4 cycles per cell)" in {
+    // The named configurations all have step 5 and one engine: this custom one runs the round robin over several
+    // engines at the tightest budget (step^2 = 4 cycles per cell), with the golden model reading its JSON.
+    runSuite(ElasParams.byName("small").copy(name = "small-step2", candidateStep = 2), extensive = false)
   }
 }
 
@@ -112,8 +118,8 @@ object PlanesSpec {
   // ---- golden cases ----
   case class Pair(label: String, left: GrayImage, right: GrayImage)
 
-  def golden(p: ElasParams, c: Pair, dir: Path): Frame = {
-    GoldenModel.dump(p.name, c.left, c.right, dir)
+  def golden(p: ElasParams, config: String, c: Pair, dir: Path): Frame = {
+    GoldenModel.dump(config, c.left, c.right, dir)
     val (w, h) = (c.left.width, c.left.height)
     val (lw, lh) = (p.latticeCount(w), p.latticeCount(h))
     val lat = NpyArray.read(dir.resolve("lattice_L.npy"))
@@ -228,11 +234,17 @@ object PlanesSpec {
     (triangles.size, triangles.count(_._1), triangles.count(_._2))
   }
 
-  def runSuite(config: String): Unit = {
-    val p = ElasParams.byName(config)
-    val rnd = new Random(seed ^ config.hashCode ^ 0x91a)
-    val tmp = tmpDir(s"planes-$config")
-    val real = pairs(rnd).zipWithIndex.map { case (c, i) => golden(p, c, tmp.resolve(f"golden$i%02d")) }
+  /** The golden model reads named configurations from golden/configs and any other from a JSON file. */
+  def configArg(p: ElasParams, dir: Path): String =
+    if (ElasParams.named.contains(p)) p.name else ConfigJson.write(p, dir).toString
+
+  def runSuite(p: ElasParams, extensive: Boolean): Unit = {
+    val rnd = new Random(seed ^ p.name.hashCode ^ 0x91a)
+    val tmp = tmpDir(s"planes-${p.name}")
+    val config = configArg(p, tmp)
+    val real = (if (extensive) pairs(rnd) else pairs(rnd).take(4)).zipWithIndex.map { case (c, i) =>
+      golden(p, config, c, tmp.resolve(f"golden$i%02d"))
+    }
 
     // The reference must agree with the golden model before it stands in for it.
     for (f <- real) {
@@ -241,7 +253,7 @@ object PlanesSpec {
     }
     println(s"  ${p.name}: the reference equals the golden planes on ${real.size} frames (${real.map(_.cells * 24L).sum} values)")
 
-    val hand = Seq(
+    val hand = if (!extensive) Seq(edgeWalk(p, 128, 64, rnd), edgeWalk(p, 37, 17, rnd)) else Seq(
       handBuilt(p, "hand-built flat 128x64", 128, 64, { val v = rnd.nextInt(p.dispMax + 1); (_, _) => v }),
       handBuilt(p, "hand-built 0 / dispMax checkerboard 128x64", 128, 64, (j, i) => if ((i + j) % 2 == 0) 0 else p.dispMax),
       handBuilt(p, "hand-built random full range 126x61", 126, 61, { val a = IndexedSeq.fill(4000)(rnd.nextInt(p.dispMax + 1)); (j, i) => a(j * 100 + i) }),
