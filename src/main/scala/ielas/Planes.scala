@@ -186,9 +186,13 @@ class PlaneEngine(p: ElasParams) extends Module {
   val hS = job.h.zext
   val n = dA.map(wS -& _)
   val nZero = n.map(_ === 0.S)
+  // Products with w, h in 1..step and the constants 10 and 7 as shift-adds: too small for a DSP block.
+  def times(a: SInt, b: UInt): SInt = b.asBools.zipWithIndex.map { case (bit, k) => Mux(bit, a << k, 0.S) }.reduce(_ +& _)
+  def times10(a: UInt): UInt = (a << 3) +& (a << 1)
+  def times7(a: UInt): UInt = (a << 3) -& a
   val valid = dA.zip(n).map { case (a, nn) =>
-    val absA = RoundDivider.absU(a)
-    10.U * absA < 7.U * job.w && nn =/= 0.S && 10.U * absA < 7.U * RoundDivider.absU(nn)
+    val absA10 = times10(RoundDivider.absU(a))
+    absA10 < times7(job.w) && nn =/= 0.S && absA10 < times7(RoundDivider.absU(nn))
   }
   val nZeroReg = Reg(Vec(2, Bool()))
   val validReg = Reg(Vec(2, Bool()))
@@ -206,7 +210,7 @@ class PlaneEngine(p: ElasParams) extends Module {
     feed(la(t), dA(t) << 16, wS)
     feed(lb(t), dB(t) << 16, hS)
     feed(ra(t), dA(t) << 16, Mux(nZero(t), 1.S, n(t))) // n = 0: the result is replaced by 0
-    feed(rb(t), (dB(t) * wS) << 16, Mux(nZero(t), 1.S, n(t) * hS))
+    feed(rb(t), times(dB(t), job.w) << 16, Mux(nZero(t), 1.S, times(n(t), job.h)))
   }
 
   switch(state) {
