@@ -20,11 +20,13 @@ import chisel3.util._
   * Each complete cell goes to one of `engines` [[PlaneEngine]]s, round robin, and leaves in the same order. An
   * engine runs 8 radix-4 [[RoundDivider]]s side by side (left a, b and right a, b of both triangles; the right
   * divisors n and h*n vary per triangle, the left ones are w, h in 1..step), so a cell occupies an engine for
-  * I + 3 cycles (register the job, load the dividers, I two-bit steps, hand over), I = [[Planes.iterations]]
-  * (12 at `small`, 14 at `kitti`). With E engines the stage accepts a cell-closing node every
-  * ceil((I + 3) / E) cycles; E is the lowest count that keeps that within step^2, the pixel clocks per lattice
-  * cell at 1 input pixel per clock (one cell row per `step` image rows). Nodes that close no cell (lattice row 0,
-  * column 0) are accepted at once. An idle stage drops nodes until a start of frame.
+  * E = I + 5 cycles (job, operands, divider load, dividends, I two-bit steps, hand over), I = [[Planes.iterations]]
+  * (12 at `small`, 14 at `kitti`: E = 17, 19). With P engines the stage accepts a cell-closing node every
+  * ceil(E / P) cycles; P is the lowest count that keeps that within step^2, the pixel clocks per lattice cell at 1
+  * input pixel per clock (one cell row per `step` image rows): P = 1 at step 5, 4 at step 2. Nodes that close no
+  * cell (lattice row 0, column 0) are accepted at once. A lattice row that arrives as a burst is therefore taken
+  * at ceil(E / P) cycles per node: the upstream stage sees back-pressure, never a loss. An idle stage drops nodes
+  * until a start of frame. Latency: the cell closed by a node leaves E + 1 cycles after that node is accepted.
   */
 class Planes(p: ElasParams, enginesOverride: Int = 0) extends Module {
   private val step = p.candidateStep
@@ -142,7 +144,8 @@ class PlaneJob(p: ElasParams) extends Bundle {
 }
 
 /** The planes of one cell: both triangles in both views with 8 [[RoundDivider]]s in parallel.
-  * start -> job registered -> dividers loaded -> I steps -> done until taken; I + 3 cycles from start to idle.
+  * start -> job registered -> operands -> dividers loaded -> dividends -> I steps -> done until taken: I + 5 cycles
+  * from one start to the next.
   * Triangle 0 = (TL, TR, BL): dA = TR - TL, dB = BL - TL; triangle 1 = (TR, BR, BL): dA = BR - BL, dB = BR - TR;
   * n = w - dA. Left a = roundDiv(dA 2^16, w), b = roundDiv(dB 2^16, h); right a = roundDiv(dA 2^16, n),
   * b = roundDiv(dB w 2^16, h n) (0 when n = 0); c = D_BL 2^16; valid = 10|dA| < 7w && n != 0 && 10|dA| < 7|n|.
@@ -161,7 +164,7 @@ class PlaneEngine(p: ElasParams) extends Module {
     val result = Output(new Framed(new PlaneCell(p)))
   })
 
-  val sIdle :: sLoad :: sRun :: sDone :: Nil = Enum(4)
+  val sIdle :: sPrep :: sLoad :: sStart :: sRun :: sDone :: Nil = Enum(6)
   val state = RegInit(sIdle)
   val job = Reg(new PlaneJob(p))
   val count = Reg(UInt(log2Ceil(iters + 1).W))
@@ -197,15 +200,20 @@ class PlaneEngine(p: ElasParams) extends Module {
   val nZeroReg = Reg(Vec(2, Bool()))
   val validReg = Reg(Vec(2, Bool()))
 
-  val load = state === sLoad
-  val run = state === sRun
+  // Pipeline of one cell: sPrep registers the dividers' operands (differences, n, products), sLoad the dividers'
+  // sign-normalised operands, sStart their dividends; short paths between registers (the whole chain in one cycle
+  // was 10 LUT levels).
+  val prep = state === sPrep
   for (t <- 0 until 2) {
     // the value bounds are the dividers' port widths; fitS drops the bits the width arithmetic adds
     def feed(d: RoundDivider, num: SInt, den: SInt): Unit = {
-      d.io.n := RoundDivider.fitS(num, d.io.n.getWidth)
-      d.io.d := RoundDivider.fitS(den, d.io.d.getWidth)
-      d.io.load := load
-      d.io.step := run
+      val numReg = RegEnable(RoundDivider.fitS(num, d.io.n.getWidth), prep)
+      val denReg = RegEnable(RoundDivider.fitS(den, d.io.d.getWidth), prep)
+      d.io.n := numReg
+      d.io.d := denReg
+      d.io.load := state === sLoad
+      d.io.start := state === sStart
+      d.io.step := state === sRun
     }
     feed(la(t), dA(t) << 16, wS)
     feed(lb(t), dB(t) << 16, hS)
@@ -214,12 +222,10 @@ class PlaneEngine(p: ElasParams) extends Module {
   }
 
   switch(state) {
-    is(sIdle) { when(io.start) { job := io.job; state := sLoad } }
-    is(sLoad) {
-      nZeroReg := VecInit(nZero); validReg := VecInit(valid)
-      count := (iters - 1).U
-      state := sRun
-    }
+    is(sIdle) { when(io.start) { job := io.job; state := sPrep } }
+    is(sPrep) { nZeroReg := VecInit(nZero); validReg := VecInit(valid); state := sLoad }
+    is(sLoad) { state := sStart }
+    is(sStart) { count := (iters - 1).U; state := sRun }
     is(sRun) {
       count := count - 1.U
       when(count === 0.U) { state := sDone }
@@ -255,40 +261,41 @@ class RoundDivider(maxN: BigInt, maxD: BigInt, iters: Int) extends Module {
   private val numW = maxN.bitLength + 1
   private val denW = maxD.bitLength + 2 // holds 2|d|
   val io = IO(new Bundle {
-    val load = Input(Bool())
-    val step = Input(Bool())
+    val load = Input(Bool()) //  n, d are taken
+    val start = Input(Bool()) // the next cycle: the dividend is formed
+    val step = Input(Bool()) //  then `iters` steps
     val n = Input(SInt(numW.W))
     val d = Input(SInt((maxD.bitLength + 1).W))
     val q = Output(SInt(32.W))
   })
 
-  val dNeg = io.d < 0.S
-  val nn = Mux(dNeg, 0.S -& io.n, io.n)
-  val dd = RoundDivider.absU(io.d)
+  val nn = RegEnable(Mux(io.d < 0.S, 0.S -& io.n, io.n), io.load) // d < 0: negate both
+  val dd = RegEnable(RoundDivider.absU(io.d), io.load)
   val m = (nn << 1) +& dd.zext
   val mag = RoundDivider.absU(m)
 
-  val den = Reg(UInt(denW.W)) //   2|d|
-  val rem = Reg(UInt(denW.W)) //   partial remainder, < den
-  val quo = Reg(UInt(qW.W)) //     dividend bits still to shift in (high end), quotient digits (low end)
+  val den = Reg(UInt(denW.W)) //        2|d|
+  val den3 = Reg(UInt((denW + 2).W)) // 6|d|
+  val rem = Reg(UInt(denW.W)) //        partial remainder, < den
+  val quo = Reg(UInt(qW.W)) //          dividend bits still to shift in (high end), quotient digits (low end)
   val neg = Reg(Bool())
-  when(io.load) {
+  when(io.start) {
     den := RoundDivider.low(dd << 1, denW)
+    den3 := RoundDivider.low((dd << 2) +& (dd << 1), denW + 2)
     rem := RoundDivider.low(mag >> qW, denW)
     quo := RoundDivider.low(mag, qW)
     neg := m < 0.S
   }.elsewhen(io.step) {
     val r4 = Cat(rem, quo(qW - 1, qW - 2))
     val d2 = den << 1
-    val d3 = den +& d2
-    val digit = Mux(r4 >= d3, 3.U, Mux(r4 >= d2, 2.U, Mux(r4 >= den, 1.U, 0.U)))
-    val sub = Mux(r4 >= d3, d3, Mux(r4 >= d2, d2, Mux(r4 >= den, den.pad(denW + 2), 0.U)))
+    val digit = Mux(r4 >= den3, 3.U, Mux(r4 >= d2, 2.U, Mux(r4 >= den, 1.U, 0.U)))
+    val sub = Mux(r4 >= den3, den3, Mux(r4 >= d2, d2, Mux(r4 >= den, den.pad(denW + 2), 0.U)))
     rem := RoundDivider.low(r4 - sub, denW)
     quo := Cat(quo(qW - 3, 0), digit)
   }
-  // floor for a negative dividend: -(|M| div D) - (remainder != 0)
-  val q = Mux(neg, 0.S -& (quo +& (rem =/= 0.U)).zext, quo.zext)
-  io.q := RoundDivider.fitS(q, 32)
+  // floor for a negative dividend: -(|M| div D) - (remainder != 0) = ~quo + (remainder == 0), one carry chain
+  val negQ = (Cat(1.U(1.W), ~quo) + (rem === 0.U).asUInt).asSInt
+  io.q := RoundDivider.fitS(Mux(neg, negQ, Cat(0.U(1.W), quo).asSInt), 32)
 }
 
 object RoundDivider {
@@ -306,8 +313,8 @@ object Planes {
     val bound = 2 * BigInt(p.dispMax) * p.candidateStep * (BigInt(1) << 16) + p.candidateStep * (p.candidateStep + p.dispMax)
     Iterator.from(1).find(i => bound < (BigInt(1) << (2 * i + 1))).get
   }
-  /** Cycles a cell occupies an engine: register the job, load the dividers, I steps, hand over. */
-  def engineCycles(p: ElasParams): Int = iterations(p) + 3
+  /** Cycles a cell occupies an engine: the job, the operands, the dividers' load, the dividends, I steps, hand over. */
+  def engineCycles(p: ElasParams): Int = iterations(p) + 5
   /** Engines: the lowest count that accepts a cell every step^2 cycles (the pixel clocks per lattice cell). */
   def engines(p: ElasParams): Int = {
     val budget = p.candidateStep * p.candidateStep
