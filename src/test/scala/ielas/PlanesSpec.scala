@@ -13,7 +13,7 @@ import scala.util.Random
   * images rarely give (flat, full-range jumps, n = 0 collapses, n < 0) whose expected planes come from the
   * independent reference below, random gaps and back-pressure, frames of different sizes back to back, and a
   * throughput bound with no stalls. A second, shorter build at `small` with candidateStep 2 runs the multi-engine
-  * round robin (4 engines), which no named configuration (all step 5, one engine) uses.
+  * round robin (5 engines, dispMax 127), which no named configuration (all step 5, one engine) uses.
   */
 class PlanesSpec extends AnyFlatSpec {
   import PlanesSpec._
@@ -33,10 +33,13 @@ class PlanesSpec extends AnyFlatSpec {
     runSuite(ElasParams.byName("small"), extensive = true)
   }
 
-  it should "match the golden planes at small with candidateStep 2 (4 engines, 4 cycles per cell)" in {
+  it should "match the golden planes at small with candidateStep 2 and dispMax 127 (5 engines, 4 cycles per cell)" in {
     // The named configurations all have step 5 and one engine: this custom one runs the round robin over several
-    // engines at the tightest budget (step^2 = 4 cycles per cell), with the golden model reading its JSON.
-    runSuite(ElasParams.byName("small").copy(name = "small-step2", candidateStep = 2), extensive = false)
+    // engines (5: not a power of two) at the tightest budget (step^2 = 4 cycles per cell), with wider dividers
+    // (dispMax 127), the golden model reading its JSON.
+    val p = ElasParams.byName("small").copy(name = "small-step2-d127", candidateStep = 2, dispMax = 127)
+    assert(Planes.engines(p) == 5 && Planes.cyclesPerCell(p) == 4, s"${Planes.engines(p)} engines")
+    runSuite(p, extensive = false)
   }
 }
 
