@@ -243,6 +243,47 @@ class HarnessTest(unittest.TestCase):
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertRegex(r.stdout, r"^sim build: up to date \(build/sim/stub-small/ielas_sim\)")
 
+    def test_build_from_verilog_dir(self):
+        # The non-stub path: every *.sv (and lint.vlt) in build/verilog/<config>/, rebuilt only when one changes.
+        # The stub stands in for `make verilog` output under a configuration of its own (a copy of small).
+        name = "harness-selftest"
+        vdir = os.path.join(ROOT, "build", "verilog", name)
+        os.makedirs(vdir, exist_ok=True)
+        with open(os.path.join(ROOT, "src", "test", "cpp", "stub", "IElas.sv")) as f:
+            stub = f.read()
+        with open(os.path.join(vdir, "IElas.sv"), "w") as f:
+            f.write(stub)
+        with open(os.path.join(vdir, "lint.vlt"), "w") as f:
+            f.write("`verilator_config\nlint_off -rule UNUSEDSIGNAL\n")
+        with open(os.path.join(ROOT, "golden", "configs", CONFIG + ".json")) as f:
+            config = f.read()
+        config_file = self.path(name + ".json")
+        with open(config_file, "w") as f:
+            f.write(config)
+        builds = []
+        for change in ("", "", "// changed\n"):
+            if change:
+                with open(os.path.join(vdir, "IElas.sv"), "a") as f:
+                    f.write(change)
+            r = subprocess.run([SIM, "build", config_file], capture_output=True, text=True)
+            self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+            builds.append(r.stdout)
+        rebuilt = [not re.search(r"^sim build: up to date", b, re.M) for b in builds]
+        self.assertEqual(rebuilt[1:], [False, True], builds)
+        self.assertRegex(builds[2], r"^sim build: \d+\.\d s \(build/sim/%s/ielas_sim\)" % name)
+        r = subprocess.run([SIM, "run", config_file, "--left", self.path("a_L.pgm"), "--right", self.path("a_R.pgm"),
+                            "--out", self.path("vdir-out"), "+stub_lat_rows=0", "+stub_extra=0"],
+                           capture_output=True, text=True)
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        self.assertEqual(int(report_value(r.stdout, "cycles")), 100 * 40 + 100)
+        # a configuration (found through IELAS_CONFIG_DIR) without Verilog
+        with open(self.path("no-verilog-here.json"), "w") as f:
+            f.write(config)
+        r = subprocess.run([SIM, "build", "no-verilog-here"], capture_output=True, text=True,
+                           env=dict(os.environ, IELAS_CONFIG_DIR=self.dir))
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("no Verilog in build/verilog/no-verilog-here (run make verilog", r.stderr)
+
     def test_build_script_errors(self):
         for args, pattern in [(["build", "no-such-config"], r"unknown configuration 'no-such-config'"),
                               (["frobnicate", CONFIG], r"unknown command 'frobnicate'")]:
