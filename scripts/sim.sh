@@ -5,6 +5,10 @@
 #   scripts/sim.sh build CONFIG [--stub]                 build (or reuse) build/sim/<config>/ielas_sim
 #   scripts/sim.sh run   CONFIG [--stub] HARNESS-ARGS... build if needed, then run ielas_sim --config CONFIG ...
 #   scripts/sim.sh path  CONFIG [--stub]                 print the binary's path (no build)
+#   scripts/sim.sh bench CONFIG [--stub] [--left L --right R] [--frames N]
+#                        the `make bench` numbers: N frames (default 3) of a pair (default KITTI 2012 000070) with no
+#                        stalls, then with 10 % input gaps and 10 % output stalls (seed 1); writes
+#                        build/bench/<config>/performance.md (a Markdown table) and the two runs' logs
 #   e.g. scripts/sim.sh run kitti --left L.png --right R.png --out build/simulate/kitti-top --frames 3
 #
 # CONFIG is a configuration name or a JSON file (its base name names the build directory), as in the Makefile.
@@ -23,12 +27,12 @@ die() { echo "sim.sh: $*" >&2; exit 1; }
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 JOBS="${SIM_JOBS:-2}"
 
-[ $# -ge 2 ] || { sed -n '2,18p' "$0" >&2; exit 1; }
+[ $# -ge 2 ] || { sed -n '2,22p' "$0" >&2; exit 1; }
 CMD="$1" CONFIG="$2"
 shift 2
 STUB=0
 if [ "${1:-}" = "--stub" ]; then STUB=1; shift; fi
-case "$CMD" in build|run|path) ;; *) die "unknown command '$CMD' (build, run, path)" ;; esac
+case "$CMD" in build|run|path|bench) ;; *) die "unknown command '$CMD' (build, run, path, bench)" ;; esac
 
 NAME="$(basename "$CONFIG")"; NAME="${NAME%.json}"
 case "$CONFIG" in
@@ -89,10 +93,57 @@ EOF
   fi
   t1=$(date +%s.%N)
   echo "$hash" > "$DIR/hash"
+  awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f\n", b - a }' > "$DIR/build_seconds"
   awk -v a="$t0" -v b="$t1" -v bin="${BIN#$ROOT/}" 'BEGIN { printf "sim build: %.1f s (%s)\n", b - a, bin }'
 }
 
-build
+BUILD_LINE="$(build)"
+echo "$BUILD_LINE"
 if [ "$CMD" = run ]; then
   exec "$BIN" --config "$CONFIG_FILE" "$@"
 fi
+[ "$CMD" = bench ] || exit 0
+
+DATA="${IELAS_DATA:-$ROOT/../shared/data}"
+LEFT="$DATA/kitti2012/training/image_0/000070_10.png"
+RIGHT="$DATA/kitti2012/training/image_1/000070_10.png"
+FRAMES=3
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --left) [ $# -ge 2 ] || die "--left needs a value"; LEFT="$2"; shift ;;
+    --right) [ $# -ge 2 ] || die "--right needs a value"; RIGHT="$2"; shift ;;
+    --frames) [ $# -ge 2 ] || die "--frames needs a value"; FRAMES="$2"; shift ;;
+    *) die "bench: unknown option $1 (--left, --right, --frames)" ;;
+  esac
+  shift
+done
+[ -r "$LEFT" ] && [ -r "$RIGHT" ] || die "bench: cannot read the pair $LEFT | $RIGHT (give --left and --right)"
+OUT="$ROOT/build/bench/$NAME$([ "$STUB" = 1 ] && echo -stub)"
+mkdir -p "$OUT"
+val() { sed -n "s|^$1: \([^ ]*\).*|\1|p" "$2" | head -n 1; }
+ROWS=()
+for mode in "no stalls:" "10 % gaps, 10 % stalls:--gaps 0.1 --stalls 0.1 --seed 1"; do
+  label="${mode%%:*}" args="${mode#*:}"
+  log="$OUT/$(echo "$label" | tr -c 'a-z0-9\n' '-' | tr -s '-' | sed 's/-$//').log"
+  # shellcheck disable=SC2086
+  "$BIN" --config "$CONFIG_FILE" --left "$LEFT" --right "$RIGHT" --out "$OUT/out" --frames "$FRAMES" $args > "$log" \
+    || { cat "$log"; die "bench: the $label run failed (log: ${log#$ROOT/})"; }
+  size="$(sed -n 's/^ielas_sim: \([0-9]*x[0-9]*\).*/\1/p' "$log")"
+  w="${size%x*}" h="${size#*x}"
+  cycles="$(val cycles "$log")" rows="$(val "latency rows" "$log")"
+  wall="$(sed -n 's/^sim wall time: \([0-9.]*\) s .* \([0-9]*\) cycles\/s)/\1 s, \2 cycles\/s/p' "$log")"
+  # the throughput bound (INTERFACES.md §4) holds only without stalls
+  if [ -z "$args" ]; then slack=$(( cycles - FRAMES * w * h - rows * w )); else slack="-"; fi
+  ROWS+=("| $label | $size | $FRAMES | $cycles | $(val cycles/pixel "$log") | $(val fps@200MHz "$log") | $rows | $slack | $wall |")
+done
+{
+  echo "Configuration \`$NAME\`$([ "$STUB" = 1 ] && echo ' (stand-in top src/test/cpp/stub/IElas.sv, not the accelerator)'),"
+  echo "pair \`${LEFT#$DATA/}\`, \`$(basename "$RIGHT")\`; Verilator $(verilator --version | cut -d' ' -f2);"
+  echo "harness build $(cat "$DIR/build_seconds" 2>/dev/null || echo '?') s (not included in the simulation times); $(nproc) cores."
+  echo
+  echo "| run | frame | frames | cycles | cycles/pixel | fps@200MHz | latency rows | c = cycles - (pixels + rows*W) | simulation (wall, speed) |"
+  echo "|---|---|---|---|---|---|---|---|---|"
+  printf '%s\n' "${ROWS[@]}"
+} > "$OUT/performance.md"
+cat "$OUT/performance.md"
+echo "wrote ${OUT#$ROOT/}/performance.md"

@@ -49,6 +49,14 @@ def read_npy_i2(path):
     return shape, list(struct.unpack("<%dh" % (shape[0] * shape[1]), body))
 
 
+def write_npy_i2(path, h, w, values):
+    header = "{'descr': '<i2', 'fortran_order': False, 'shape': (%d, %d), }" % (h, w)
+    header += " " * ((64 - (10 + len(header) + 1) % 64) % 64) + "\n"
+    with open(path, "wb") as f:
+        f.write(b"\x93NUMPY\x01\x00" + struct.pack("<H", len(header)) + header.encode("latin1"))
+        f.write(struct.pack("<%dh" % len(values), *values))
+
+
 def report_value(stdout, key):
     m = re.search(r"^%s: (\S+)" % re.escape(key), stdout, re.M)
     if not m:
@@ -236,7 +244,58 @@ class HarnessTest(unittest.TestCase):
         self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
         self.assertIn("(max 128x64)", r.stdout)
 
-    # ---- the build script ----
+    # ---- --expect: the last frame against a reference .npy ----
+
+    def test_expect(self):
+        w, h, left = self.images["a"]
+        good = [16 * v for v in left]
+        write_npy_i2(self.path("expect_good.npy"), h, w, good)
+        r = self.run_sim("a", ["--frames", "2", "--expect", self.path("expect_good.npy")])
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        self.assertEqual(report_value(r.stdout, "mismatches"), "0")
+        bad = list(good)
+        bad[3 * w + 7] = -1
+        bad[5 * w + 9] += 16
+        write_npy_i2(self.path("expect_bad.npy"), h, w, bad)
+        r = self.run_sim("a", ["--expect", self.path("expect_bad.npy")])
+        self.assertEqual(r.returncode, 5, r.stdout + r.stderr)
+        self.assertEqual(report_value(r.stdout, "mismatches"), "2")
+        self.assertIn("first mismatch: disparity.npy (x=7, y=3) hardware %d, expected -1" % good[3 * w + 7], r.stdout)
+        self.assertRegex(r.stderr, r"^ielas_sim: 2 of 4000 values differ from ")
+        write_npy_i2(self.path("expect_shape.npy"), w, h, good)
+        r = self.run_sim("a", ["--expect", self.path("expect_shape.npy")])
+        self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+        self.assertIn("is not <i2 of shape (40, 100)", r.stderr)
+        r = self.run_sim("a", ["--expect", self.path("missing.npy")])
+        self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+
+    def test_images(self):
+        # --images: PFM (float32 little-endian, bottom row first) and KITTI PNG beside disparity.npy
+        w, h, left = self.images["a"]
+        r = self.run_sim("a", ["--images"], out="images")
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        with open(self.path("images/disparity.pfm"), "rb") as f:
+            pfm = f.read()
+        head = b"Pf\n%d %d\n-1.0\n" % (w, h)
+        self.assertEqual(pfm[:len(head)], head)
+        floats = struct.unpack("<%df" % (w * h), pfm[len(head):])
+        self.assertEqual([floats[(h - 1 - y) * w + x] for y in (0, 17) for x in (0, 55)],
+                         [float(left[y * w + x]) for y in (0, 17) for x in (0, 55)])
+        with open(self.path("images/disparity_kitti.png"), "rb") as f:
+            self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+
+    # ---- the build script and bench ----
+
+    def test_bench(self):
+        r = subprocess.run([SIM, "bench", CONFIG, "--stub", "--left", self.path("a_L.pgm"), "--right",
+                            self.path("a_R.pgm"), "--frames", "2"], capture_output=True, text=True)
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        # default stub timing L=2, C=3: 2*4000 + 3*100 + 3 cycles, 4 latency rows, c = 8303 - 8000 - 400
+        self.assertRegex(r.stdout, r"\| no stalls \| 100x40 \| 2 \| 8303 \| 1\.038 \| 48175\.4 \| 4 \| -97 \| [0-9.]+ s, \d+ cycles/s \|")
+        self.assertRegex(r.stdout, r"\| 10 % gaps, 10 % stalls \| 100x40 \| 2 \| \d+ \|")
+        with open(os.path.join(ROOT, "build", "bench", "small-stub", "performance.md")) as f:
+            self.assertIn("| no stalls | 100x40 | 2 | 8303 |", f.read())
+
 
     def test_build_is_cached(self):
         r = subprocess.run([SIM, "build", CONFIG, "--stub"], capture_output=True, text=True)

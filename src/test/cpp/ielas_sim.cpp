@@ -5,7 +5,8 @@
 // Cycle numbering: cycle 0 is the first clock edge after reset; a transfer "at cycle c" is sampled at that edge.
 // cycles = last output transfer - first input transfer + 1, over all frames.
 // Exit codes: 0 ok, 1 bad input or usage, 2 framing errors (sof/eol/eof in the wrong place, output beyond the
-// last frame), 3 timeout (no output transfer for --timeout cycles), 4 the hardware raised its error bit.
+// last frame), 3 timeout (no output transfer for --timeout cycles), 4 the hardware raised its error bit,
+// 5 --expect given and the last frame's output differs from it.
 // Usage: see usage() below; docs/simulation.md has the details.
 #include <chrono>
 #include <cmath>
@@ -43,22 +44,27 @@ namespace {
 
 const char* kUsage =
     "usage: ielas_sim --left L --right R --out DIR [--config NAME|FILE.json | --max-width W --max-height H]\n"
-    "                 [--frames N] [--gaps P] [--stalls P] [--seed S] [--timeout CYCLES] [+plusarg ...]\n"
+    "                 [--frames N] [--gaps P] [--stalls P] [--seed S] [--timeout CYCLES] [--expect D.npy] [--images]\n"
+    "                 [+plusarg ...]\n"
     "  --config      configuration whose maxWidth/maxHeight bound the frame (default: the one built: '" IELAS_SIM_CONFIG
     "')\n"
     "  --frames N    stream the pair N times back to back (default 1); the output of the last frame is written\n"
     "  --gaps P      probability of an idle input cycle (seeded; default 0)\n"
     "  --stalls P    probability of output back-pressure in a cycle (seeded; default 0)\n"
     "  --timeout C   fail (exit 3) after C cycles without an output transfer (default 2*W*H/(1-P) + 100000)\n"
+    "  --expect F    compare the last frame's output with F (<i2, (H, W), e.g. the golden disparity.npy):\n"
+    "                prints 'mismatches: N' and the first mismatch; exit 5 when N > 0\n"
+    "  --images      also write OUT/disparity.pfm and OUT/disparity_kitti.png (KITTI uint16, disparity*256)\n"
     "  +...          passed to the Verilated model ($value$plusargs)\n";
 
 struct Options {
-  std::string left, right, out, config = IELAS_SIM_CONFIG;
+  std::string left, right, out, expect, config = IELAS_SIM_CONFIG;
   int maxWidth = 0, maxHeight = 0;
   long frames = 1;
   double gaps = 0, stalls = 0;
   uint64_t seed = 1;
   long long timeout = -1;
+  bool images = false;
   std::vector<std::string> plusargs;
 };
 
@@ -95,6 +101,10 @@ Options parseArgs(int argc, char** argv) {
       std::fputs(kUsage, stdout);
       std::exit(0);
     }
+    if (a == "--images") {
+      o.images = true;
+      continue;
+    }
     if (!a.empty() && a[0] == '+') {
       o.plusargs.push_back(a);
       continue;
@@ -105,6 +115,7 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--right") o.right = v;
     else if (a == "--out") o.out = v;
     else if (a == "--config") o.config = v;
+    else if (a == "--expect") o.expect = v;
     else if (a == "--max-width") o.maxWidth = static_cast<int>(parseInt(a, v, 32, 8192));
     else if (a == "--max-height") o.maxHeight = static_cast<int>(parseInt(a, v, 16, 8192));
     else if (a == "--frames") o.frames = static_cast<long>(parseInt(a, v, 1, 1000000));
@@ -163,11 +174,22 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     die(1, e.what());
   }
+  const int W = left.cols, H = left.rows;
+  // Read the expected output before simulating, so a bad file fails fast.
+  ielas::NpyArray expected;
+  if (!o.expect.empty()) {
+    try {
+      expected = ielas::readNpy(o.expect);
+    } catch (const std::exception& e) {
+      die(1, e.what());
+    }
+    if (expected.descr != "<i2" || expected.shape != std::vector<int>{H, W})
+      die(1, "--expect " + o.expect + " is not <i2 of shape (" + std::to_string(H) + ", " + std::to_string(W) + ")");
+  }
   std::error_code ec;
   std::filesystem::create_directories(o.out, ec);
   if (ec || !std::filesystem::is_directory(o.out)) die(1, "cannot create output directory " + o.out);
 
-  const int W = left.cols, H = left.rows;
   const uint64_t N = static_cast<uint64_t>(W) * H;
   const uint64_t F = static_cast<uint64_t>(o.frames);
   const uint64_t inTotal = N * F;
@@ -308,10 +330,29 @@ int main(int argc, char** argv) {
     if (!c) throw std::runtime_error("cannot write " + o.out + "/cycles.txt");
     std::fprintf(c, "%lu\n", (unsigned long)cycles);
     std::fclose(c);
+    if (o.images) {
+      cv::Mat d(H, W, CV_32F);  // output format: disparity*16, negative = invalid
+      for (uint64_t i = 0; i < N; ++i)
+        d.at<float>(static_cast<int>(i / W), static_cast<int>(i % W)) = lastFrame[i] < 0 ? -1.0f : lastFrame[i] / 16.0f;
+      ielas::writePfm(o.out + "/disparity.pfm", d);
+      ielas::writeKittiPng(o.out + "/disparity_kitti.png", d);
+    }
   } catch (const std::exception& e) {
     die(1, e.what());
   }
 
+  uint64_t mismatches = 0;
+  if (!o.expect.empty()) {
+    for (uint64_t i = 0; i < N; ++i) {
+      int64_t want = expected.value(i);
+      if (lastFrame[i] == want) continue;
+      if (mismatches == 0)
+        std::printf("first mismatch: disparity.npy (x=%d, y=%d) hardware %d, expected %lld\n", static_cast<int>(i % W),
+                    static_cast<int>(i / W), lastFrame[i], static_cast<long long>(want));
+      ++mismatches;
+    }
+    std::printf("mismatches: %lu\n", (unsigned long)mismatches);
+  }
   double cpp = static_cast<double>(cycles) / static_cast<double>(inTotal);
   std::printf("cycles: %lu\n", (unsigned long)cycles);
   std::printf("cycles/pixel: %.3f\n", cpp);
@@ -321,8 +362,10 @@ int main(int argc, char** argv) {
   std::printf("framing errors: %lu\n", (unsigned long)framingErrors);
   std::printf("sim wall time: %.3f s (%lu cycles simulated, %.0f cycles/s)\n", wall, (unsigned long)totalCycles,
               totalCycles / wall);
-  std::printf("wrote %s/disparity.npy, %s/cycles.txt\n", o.out.c_str(), o.out.c_str());
+  std::printf("wrote %s/disparity.npy, %s/cycles.txt%s\n", o.out.c_str(), o.out.c_str(),
+              o.images ? ", disparity.pfm, disparity_kitti.png" : "");
   if (framingErrors > 0) die(2, std::to_string(framingErrors) + " framing error(s)");
   if (errorBit) die(4, "the hardware's error bit is set");
+  if (mismatches > 0) die(5, std::to_string(mismatches) + " of " + std::to_string(N) + " values differ from " + o.expect);
   return 0;
 }
