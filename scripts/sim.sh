@@ -9,6 +9,12 @@
 #                        the `make bench` numbers: N frames (default 3) of a pair (default KITTI 2012 000070) with no
 #                        stalls, then with 10 % input gaps and 10 % output stalls (seed 1); writes
 #                        build/bench/<config>/performance.md (a Markdown table) and the two runs' logs
+#   scripts/sim.sh demo  CONFIG [--stub] [--left L --right R] [--gt G] [--out DIR]
+#                        the `make run` job: the golden model's dump of the pair (default KITTI 2012 000070 with
+#                        its disp_noc ground truth) into DIR/golden, the harness with --expect and --images into
+#                        DIR/hardware, then the report lines mismatches / cycles/pixel / fps@200MHz / latency rows
+#                        / bad-3 (invalid = bad; with ground truth) and DIR/disparity.png (colourised). DIR
+#                        defaults to build/run. Exit code: the harness's (5 = mismatches).
 #   e.g. scripts/sim.sh run kitti --left L.png --right R.png --out build/simulate/kitti-top --frames 3
 #
 # CONFIG is a configuration name or a JSON file (its base name names the build directory), as in the Makefile.
@@ -27,12 +33,12 @@ die() { echo "sim.sh: $*" >&2; exit 1; }
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 JOBS="${SIM_JOBS:-2}"
 
-[ $# -ge 2 ] || { sed -n '2,22p' "$0" >&2; exit 1; }
+[ $# -ge 2 ] || { sed -n '2,28p' "$0" >&2; exit 1; }
 CMD="$1" CONFIG="$2"
 shift 2
 STUB=0
 if [ "${1:-}" = "--stub" ]; then STUB=1; shift; fi
-case "$CMD" in build|run|path|bench) ;; *) die "unknown command '$CMD' (build, run, path, bench)" ;; esac
+case "$CMD" in build|run|path|bench|demo) ;; *) die "unknown command '$CMD' (build, run, path, bench, demo)" ;; esac
 
 NAME="$(basename "$CONFIG")"; NAME="${NAME%.json}"
 case "$CONFIG" in
@@ -102,22 +108,53 @@ echo "$BUILD_LINE"
 if [ "$CMD" = run ]; then
   exec "$BIN" --config "$CONFIG_FILE" "$@"
 fi
-[ "$CMD" = bench ] || exit 0
+[ "$CMD" = build ] && exit 0
 
 DATA="${IELAS_DATA:-$ROOT/../shared/data}"
 LEFT="$DATA/kitti2012/training/image_0/000070_10.png"
 RIGHT="$DATA/kitti2012/training/image_1/000070_10.png"
+GT="" RUN_OUT="$ROOT/build/run"
+[ -r "$LEFT" ] && GT="$DATA/kitti2012/training/disp_noc/000070_10.png"
 FRAMES=3
 while [ $# -gt 0 ]; do
   case "$1" in
-    --left) [ $# -ge 2 ] || die "--left needs a value"; LEFT="$2"; shift ;;
+    --left) [ $# -ge 2 ] || die "--left needs a value"; LEFT="$2"; GT=""; shift ;;
     --right) [ $# -ge 2 ] || die "--right needs a value"; RIGHT="$2"; shift ;;
-    --frames) [ $# -ge 2 ] || die "--frames needs a value"; FRAMES="$2"; shift ;;
-    *) die "bench: unknown option $1 (--left, --right, --frames)" ;;
+    --frames) [ "$CMD" = bench ] && [ $# -ge 2 ] || die "$CMD: --frames is a bench option with a value"; FRAMES="$2"; shift ;;
+    --gt) [ "$CMD" = demo ] && [ $# -ge 2 ] || die "$CMD: --gt is a demo option with a value"; GT="$2"; shift ;;
+    --out) [ "$CMD" = demo ] && [ $# -ge 2 ] || die "$CMD: --out is a demo option with a value"; RUN_OUT="$2"; shift ;;
+    *) die "$CMD: unknown option $1" ;;
   esac
   shift
 done
-[ -r "$LEFT" ] && [ -r "$RIGHT" ] || die "bench: cannot read the pair $LEFT | $RIGHT (give --left and --right)"
+[ -r "$LEFT" ] && [ -r "$RIGHT" ] || die "$CMD: cannot read the pair $LEFT | $RIGHT (give --left and --right)"
+
+if [ "$CMD" = demo ]; then
+  GOLDEN="${IELAS_GOLDEN:-$ROOT/golden/build/ielas-golden}"
+  EVAL="${IELAS_EVAL:-$ROOT/golden/build/ielas-eval}"
+  [ -x "$GOLDEN" ] && [ -x "$EVAL" ] || die "demo: $GOLDEN or $EVAL missing (make golden)"
+  mkdir -p "$RUN_OUT"
+  echo "run: $NAME, pair $LEFT | $RIGHT"
+  "$GOLDEN" dump --mode ielas --config "$CONFIG_FILE" --left "$LEFT" --right "$RIGHT" --out "$RUN_OUT/golden" >/dev/null \
+    || die "demo: the golden model failed"
+  set +e
+  "$BIN" --config "$CONFIG_FILE" --left "$LEFT" --right "$RIGHT" --out "$RUN_OUT/hardware" \
+    --expect "$RUN_OUT/golden/disparity.npy" --images
+  code=$?
+  set -e
+  [ -f "$RUN_OUT/hardware/disparity.npy" ] || exit "$code"
+  if [ -n "$GT" ]; then
+    [ -r "$GT" ] || die "demo: cannot read ground truth $GT"
+    line="$("$EVAL" score --disp "$RUN_OUT/hardware/disparity.npy" --gt "$GT" --colour "$RUN_OUT/disparity.png")" \
+      || die "demo: scoring against $GT failed"
+    echo "$line" | awk -F, '{ printf "bad-3: %.2f\n", $7 }'   # column bad3: invalid pixels count as bad
+  else
+    "$EVAL" colour --disp "$RUN_OUT/hardware/disparity.npy" --out "$RUN_OUT/disparity.png" \
+      || die "demo: colourising failed"
+  fi
+  echo "wrote ${RUN_OUT#$ROOT/}/disparity.png, hardware/ (disparity.npy, .pfm, _kitti.png, cycles.txt), golden/"
+  exit "$code"
+fi
 OUT="$ROOT/build/bench/$NAME$([ "$STUB" = 1 ] && echo -stub)"
 mkdir -p "$OUT"
 val() { sed -n "s|^$1: \([^ ]*\).*|\1|p" "$2" | head -n 1; }

@@ -284,6 +284,35 @@ class HarnessTest(unittest.TestCase):
         with open(self.path("images/disparity_kitti.png"), "rb") as f:
             self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
 
+    # ---- demo (the `make run` job) ----
+
+    def test_demo(self):
+        golden = os.environ.get("IELAS_GOLDEN", os.path.join(ROOT, "golden", "build", "ielas-golden"))
+        evaluate = os.environ.get("IELAS_EVAL", os.path.join(os.path.dirname(golden), "ielas-eval"))
+        if not (os.access(golden, os.X_OK) and os.access(evaluate, os.X_OK)):
+            self.skipTest("no golden model binaries (make golden, or set IELAS_GOLDEN)")
+        env = dict(os.environ, IELAS_GOLDEN=golden, IELAS_EVAL=evaluate)
+        w, h, left = self.images["a"]
+        # ground truth = the stub's own output (disparity = left), so bad-3 must be exactly 0
+        r = self.run_sim("a", ["--images"], out="gt")
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        demo = self.path("demo")
+        r = subprocess.run([SIM, "demo", CONFIG, "--stub", "--left", self.path("a_L.pgm"), "--right",
+                            self.path("a_R.pgm"), "--gt", self.path("gt/disparity.pfm"), "--out", demo],
+                           capture_output=True, text=True, env=env)
+        # the stub is not the accelerator: it differs from the golden model wherever disparity != left*16
+        _, golden_values = read_npy_i2(os.path.join(demo, "golden", "disparity.npy"))
+        want = sum(1 for g, l in zip(golden_values, left) if g != 16 * l)
+        self.assertGreater(want, 0)
+        self.assertEqual(r.returncode, 5, r.stdout + r.stderr)
+        self.assertEqual(report_value(r.stdout, "mismatches"), str(want))
+        self.assertEqual(report_value(r.stdout, "bad-3"), "0.00")
+        self.assertEqual(report_value(r.stdout, "latency rows"), "4")
+        self.assertEqual(report_value(r.stdout, "cycles/pixel"), "%.3f" % ((w * h + 3 * w + 3) / (w * h)))
+        for f in ("disparity.png", "hardware/disparity.npy", "hardware/disparity.pfm", "hardware/disparity_kitti.png",
+                  "hardware/cycles.txt"):
+            self.assertTrue(os.path.isfile(os.path.join(demo, f)), f)
+
     # ---- the build script and bench ----
 
     def test_bench(self):
