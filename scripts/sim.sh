@@ -60,6 +60,14 @@ else
   mapfile -t VERILOG < <(ls "$VDIR"/*.sv 2>/dev/null | sort)
   [ ${#VERILOG[@]} -gt 0 ] || die "no Verilog in build/verilog/$NAME (run make verilog CONFIG=$CONFIG first)"
   VFLAGS=()
+  # The harness drives the full top's ports; a top without them (e.g. the descriptor-only IElas) cannot build.
+  [ -f "$VDIR/IElas.sv" ] || die "no IElas.sv in build/verilog/$NAME"
+  for port in io_in_valid io_in_ready io_in_bits_left io_in_bits_right io_in_bits_sof io_in_bits_eol io_frameWidth \
+              io_frameHeight io_error io_clearError io_out_valid io_out_ready io_out_bits_data io_out_bits_sof \
+              io_out_bits_eol io_out_bits_eof; do
+    grep -qw "$port" "$VDIR/IElas.sv" \
+      || die "build/verilog/$NAME/IElas.sv has no port $port: the harness needs the full top's ports (docs/simulation.md)"
+  done
   [ -f "$VDIR/lint.vlt" ] && VERILOG=("$VDIR/lint.vlt" "${VERILOG[@]}")
 fi
 BIN="$DIR/ielas_sim"

@@ -17,6 +17,7 @@ import re
 import struct
 import subprocess
 import tempfile
+import time
 import unittest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -339,8 +340,11 @@ class HarnessTest(unittest.TestCase):
         os.makedirs(vdir, exist_ok=True)
         with open(os.path.join(ROOT, "src", "test", "cpp", "stub", "IElas.sv")) as f:
             stub = f.read()
-        with open(os.path.join(vdir, "IElas.sv"), "w") as f:
-            f.write(stub)
+        # keep the previous run's file when it holds the current stub, so a warm run builds once (for the change)
+        top = os.path.join(vdir, "IElas.sv")
+        if not os.path.isfile(top) or not open(top).read().startswith(stub):
+            with open(top, "w") as f:
+                f.write(stub)
         with open(os.path.join(vdir, "lint.vlt"), "w") as f:
             f.write("`verilator_config\nlint_off -rule UNUSEDSIGNAL\n")
         with open(os.path.join(ROOT, "golden", "configs", CONFIG + ".json")) as f:
@@ -349,7 +353,7 @@ class HarnessTest(unittest.TestCase):
         with open(config_file, "w") as f:
             f.write(config)
         builds = []
-        for change in ("", "", "// changed\n"):
+        for change in ("", "", "// changed %s\n" % time.time()):
             if change:
                 with open(os.path.join(vdir, "IElas.sv"), "a") as f:
                     f.write(change)
@@ -364,6 +368,16 @@ class HarnessTest(unittest.TestCase):
                            capture_output=True, text=True)
         self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
         self.assertEqual(int(report_value(r.stdout, "cycles")), 100 * 40 + 100)
+        # a top without the full ports (like the descriptor-only IElas): refused before Verilator runs
+        old = "harness-selftest-old"
+        os.makedirs(os.path.join(ROOT, "build", "verilog", old), exist_ok=True)
+        with open(os.path.join(ROOT, "build", "verilog", old, "IElas.sv"), "w") as f:
+            f.write(stub.replace("io_out_bits_data", "io_out_bits_data_left"))
+        with open(self.path(old + ".json"), "w") as f:
+            f.write(config)
+        r = subprocess.run([SIM, "build", self.path(old + ".json")], capture_output=True, text=True)
+        self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+        self.assertIn("IElas.sv has no port io_out_bits_data: the harness needs the full top's ports", r.stderr)
         # a configuration (found through IELAS_CONFIG_DIR) without Verilog
         with open(self.path("no-verilog-here.json"), "w") as f:
             f.write(config)
