@@ -11,7 +11,8 @@
 #                        build/bench/<config>/performance.md (a Markdown table) and the two runs' logs
 #   scripts/sim.sh demo  CONFIG [--stub] [--left L --right R] [--gt G] [--out DIR]
 #                        the `make run` job: the golden model's dump of the pair (default KITTI 2012 000070 with
-#                        its disp_noc ground truth) into DIR/golden, the harness with --expect and --images into
+#                        its disp_noc ground truth; without ../shared/data, the synthetic scene of ielas-synth
+#                        at up to 640x360) into DIR/golden, the harness with --expect and --images into
 #                        DIR/hardware, then the report lines mismatches / cycles/pixel / fps@200MHz / latency rows
 #                        / bad-3 (invalid = bad; with ground truth) and DIR/disparity.png (colourised). DIR
 #                        defaults to build/run. Exit code: the harness's (5 = mismatches).
@@ -135,6 +136,17 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
+if [ "$LEFT" = "$DATA/kitti2012/training/image_0/000070_10.png" ] && [ ! -r "$LEFT" ]; then
+  # no ../shared/data (a user's machine): the project's synthetic scene, cut to the configuration's maximum
+  SYNTH="$(dirname "${IELAS_GOLDEN:-$ROOT/golden/build/ielas-golden}")/ielas-synth"
+  [ -x "$SYNTH" ] || die "$CMD: no KITTI pair in $DATA and no $SYNTH (make golden)"
+  read -r MAXW MAXH < <(python3 -c 'import json,sys; c=json.load(open(sys.argv[1])); print(c["maxWidth"], c["maxHeight"])' "$CONFIG_FILE")
+  SDIR="$ROOT/build/run/synth-$NAME"
+  mkdir -p "$SDIR"
+  "$SYNTH" --out "$SDIR" --width $(( MAXW < 640 ? MAXW : 640 )) --height $(( MAXH < 360 ? MAXH : 360 )) >/dev/null \
+    || die "$CMD: $SYNTH failed"
+  LEFT="$SDIR/left.pgm" RIGHT="$SDIR/right.pgm" GT="$SDIR/disp_noc.png"
+fi
 [ -r "$LEFT" ] && [ -r "$RIGHT" ] || die "$CMD: cannot read the pair $LEFT | $RIGHT (give --left and --right)"
 
 if [ "$CMD" = demo ]; then

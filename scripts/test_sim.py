@@ -313,6 +313,13 @@ class HarnessTest(unittest.TestCase):
         for f in ("disparity.png", "hardware/disparity.npy", "hardware/disparity.pfm", "hardware/disparity_kitti.png",
                   "hardware/cycles.txt"):
             self.assertTrue(os.path.isfile(os.path.join(demo, f)), f)
+        # without ../shared/data: the synthetic scene (ielas-synth), cut to the configuration's 128x64, with its GT
+        r = subprocess.run([SIM, "demo", CONFIG, "--stub", "--out", self.path("demo-synth")], capture_output=True,
+                           text=True, env=dict(env, IELAS_DATA=self.path("no-data")))
+        self.assertEqual(r.returncode, 5, r.stdout + r.stderr)
+        self.assertRegex(r.stdout, r"run: small, pair \S*/build/run/synth-small/left\.pgm")
+        self.assertIn("ielas_sim: 128x64 (max 128x64)", r.stdout)
+        self.assertRegex(r.stdout, r"(?m)^bad-3: \d+\.\d\d$")
 
     # ---- the build script and bench ----
 
