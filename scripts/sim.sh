@@ -26,7 +26,8 @@
 # A rebuild happens only when the hash of its inputs changes: the Verilog, the harness sources, the Verilator
 # version and this script's build command. The build time is printed on its own line ("sim build: ..."), so
 # the harness's own report (wall time of the simulation) never includes it.
-# Environment: SIM_JOBS (default 2), IELAS_CONFIG_DIR (configurations, default golden/configs).
+# Environment: SIM_JOBS (default 2), IELAS_CONFIG_DIR (configurations, default golden/configs), IELAS_DATA
+# (default ../shared/data), IELAS_GOLDEN / IELAS_EVAL (default golden/build/ielas-golden, ielas-eval).
 set -euo pipefail
 
 die() { echo "sim.sh: $*" >&2; exit 1; }
@@ -34,7 +35,7 @@ die() { echo "sim.sh: $*" >&2; exit 1; }
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 JOBS="${SIM_JOBS:-2}"
 
-[ $# -ge 2 ] || { sed -n '2,28p' "$0" >&2; exit 1; }
+[ $# -ge 2 ] || { sed -n '2,/^set -euo/p' "$0" | sed '$d' >&2; exit 1; }
 CMD="$1" CONFIG="$2"
 shift 2
 STUB=0

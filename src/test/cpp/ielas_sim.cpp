@@ -48,7 +48,7 @@ const char* kUsage =
     "                 [+plusarg ...]\n"
     "  --config      configuration whose maxWidth/maxHeight bound the frame (default: the one built: '" IELAS_SIM_CONFIG
     "')\n"
-    "  --frames N    stream the pair N times back to back (default 1); the output of the last frame is written\n"
+    "  --frames N    stream the pair N times back to back (1..10000, default 1); the last frame's output is written\n"
     "  --gaps P      probability of an idle input cycle (seeded; default 0)\n"
     "  --stalls P    probability of output back-pressure in a cycle (seeded; default 0)\n"
     "  --timeout C   fail (exit 3) after C cycles without an output transfer (default 2*W*H/(1-P) + 100000)\n"
@@ -118,7 +118,7 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--expect") o.expect = v;
     else if (a == "--max-width") o.maxWidth = static_cast<int>(parseInt(a, v, 32, 8192));
     else if (a == "--max-height") o.maxHeight = static_cast<int>(parseInt(a, v, 16, 8192));
-    else if (a == "--frames") o.frames = static_cast<long>(parseInt(a, v, 1, 1000000));
+    else if (a == "--frames") o.frames = static_cast<long>(parseInt(a, v, 1, 10000));  // per-row cycle records: 16 bytes a row
     else if (a == "--gaps") o.gaps = parseProb(a, v);
     else if (a == "--stalls") o.stalls = parseProb(a, v);
     else if (a == "--seed") o.seed = static_cast<uint64_t>(parseInt(a, v, 0, INT64_MAX));
