@@ -104,23 +104,45 @@ object GridVectorSpec {
     (count(g._1), count(g._2))
   }
 
+  private def gridBeat(o: Framed[GridCellPair]): GridBeat =
+    GridBeat(o.data.left.map(peek(_).toInt), o.data.right.map(peek(_).toInt), peek(o.sof), peek(o.eol), peek(o.eof))
+
   /** Streams same-size frames through the chain and hands every grid cell to `sink`; returns the cycles. */
-  def streamFrames(dut: GridVectorChain, p: ElasParams, frames: Seq[(GrayImage, GrayImage)], traffic: Traffic,
-      rnd: Random, sink: (Long, GridBeat) => Unit, maxCycles: Long, what: String): Long = {
+  def streamFrames(clock: chisel3.Clock, io: GridVectorChainIO, p: ElasParams, frames: Seq[(GrayImage, GrayImage)],
+      traffic: Traffic, rnd: Random, sink: (Long, GridBeat) => Unit, maxCycles: Long, what: String): Long = {
     val (w, h) = (frames.head._1.width, frames.head._1.height)
     require(frames.forall { case (l, r) => l.width == w && r.width == w && l.height == h && r.height == h },
       s"$what: all frames of one run need the same size")
-    poke(dut.io.frameWidth, w)
-    poke(dut.io.frameHeight, h)
+    poke(io.frameWidth, w)
+    poke(io.frameHeight, h)
     val beats = frames.iterator.flatMap { case (l, r) =>
       Iterator.range(0, w * h).map(i => (l.pixels(i) & 0xff, r.pixels(i) & 0xff, i == 0, i % w == w - 1))
     }
     val outputs = frames.length.toLong * p.gridCount(w) * p.gridCount(h)
-    run[PixelPair, Framed[GridCellPair], (Int, Int, Boolean, Boolean), GridBeat](dut.clock, dut.io.in, beats,
+    run[PixelPair, Framed[GridCellPair], (Int, Int, Boolean, Boolean), GridBeat](clock, io.in, beats,
       (bits, b) => { poke(bits.left, b._1); poke(bits.right, b._2); poke(bits.sof, b._3); poke(bits.eol, b._4) },
-      dut.io.out, outputs,
-      o => GridBeat(o.data.left.map(peek(_).toInt), o.data.right.map(peek(_).toInt), peek(o.sof), peek(o.eol), peek(o.eof)),
-      sink, traffic, rnd, maxCycles, what)
+      io.out, outputs, gridBeat, sink, traffic, rnd, maxCycles, what)
+  }
+
+  /** Streams golden filtered lattices (support_filtered_L.npy of frames of size w x h) straight into the stand-alone
+    * GridVector of [[GridVectorTestTop]]: with no input gaps, one node per clock, faster than the filter ever sends
+    * them (it needs at least 2 cycles per node), so the mark pipeline's forwarding and the input stall are exercised.
+    */
+  def streamLattice(dut: GridVectorTestTop, p: ElasParams, w: Int, h: Int, frames: Seq[NpyArray], traffic: Traffic,
+      rnd: Random, sink: (Long, GridBeat) => Unit, what: String): Long = {
+    val (lh, lw) = (p.latticeCount(h), p.latticeCount(w))
+    require(frames.forall(_.shape == Seq(lh, lw)), s"$what: lattices of one run need the shape ($lh, $lw)")
+    poke(dut.io.chain.frameWidth, w)
+    poke(dut.io.chain.frameHeight, h)
+    val nodes = lh * lw
+    val beats = frames.iterator.flatMap(a => Iterator.range(0, nodes).map(i =>
+      (a(i.toLong), i == 0, i % lw == lw - 1, i == nodes - 1)))
+    val mask = (BigInt(1) << (p.dispBits + 1)) - 1
+    run[Framed[chisel3.UInt], Framed[GridCellPair], (Int, Boolean, Boolean, Boolean), GridBeat](dut.clock,
+      dut.io.lattice, beats,
+      (bits, b) => { poke(bits.data, BigInt(b._1) & mask); poke(bits.sof, b._2); poke(bits.eol, b._3); poke(bits.eof, b._4) },
+      dut.io.grid, frames.length.toLong * p.gridCount(w) * p.gridCount(h), gridBeat, sink, traffic, rnd,
+      20L * frames.length * (nodes + p.gridCount(h) * GridVector.rowCycles(p, w)) + 1000, what)
   }
 
   /** Every transfer may wait on a gap and a stall; the grid adds its grid rows after the lattice. */
@@ -150,14 +172,18 @@ object GridVectorSpec {
       shiftedPair(32, 16, 2, rnd))
     val tmp = tmpDir(s"grid-$config")
     val expected = all.zipWithIndex.map { case (c, i) => golden(p, c, tmp.resolve(f"golden$i%02d")) }
+    val lattices = all.indices.map(i => NpyArray.read(tmp.resolve(f"golden$i%02d").resolve("support_filtered_L.npy")))
     var totalCells = 0L
     var totalFull = 0L
-    simulate(new GridVectorChain(p), tmp.resolve("verilator")) { dut =>
+    simulate(new GridVectorTestTop(p), tmp.resolve("verilator")) { dut =>
       reset(dut)
+      poke(dut.io.chain.in.valid, false)
+      poke(dut.io.lattice.valid, false)
+      val chain = dut.io.chain
       for ((c, exp) <- all.zip(expected)) {
         val board = new GridScoreboard(Seq(exp), c.label)
         val traffic = Traffic(rnd.nextDouble() * 0.5, rnd.nextDouble() * 0.5)
-        streamFrames(dut, p, Seq((c.left, c.right)), traffic, rnd, board.check,
+        streamFrames(dut.clock, chain, p, Seq((c.left, c.right)), traffic, rnd, board.check,
           choppyBound(p, c.left.width, c.left.height), c.label)
         assert(board.board.ok, board.board.report)
         val (fullL, fullR) = fullCells(exp)
@@ -172,22 +198,79 @@ object GridVectorSpec {
       // Throughput with no stalls on a pair whose cells overflow (every cell takes the longest extraction).
       val tputIndex = all.indexWhere(c => c.left.width == w && c.left.height == h && c.label.startsWith("blocks"))
       val tput = new GridScoreboard(Seq(expected(tputIndex)), all(tputIndex).label)
-      val cycles = streamFrames(dut, p, Seq((all(tputIndex).left, all(tputIndex).right)), noStall, rnd, tput.check,
-        choppyBound(p, w, h), "throughput")
+      val cycles = streamFrames(dut.clock, chain, p, Seq((all(tputIndex).left, all(tputIndex).right)), noStall, rnd,
+        tput.check, choppyBound(p, w, h), "throughput")
       assert(tput.board.ok, tput.board.report)
       val (bound, formula) = throughputBound(p, w, h)
       println(s"  ${p.name}: throughput ${w}x$h: $cycles cycles, bound $bound ($formula)")
       assert(cycles <= bound, s"throughput: $cycles cycles > bound $bound ($formula)")
 
-      // Three different frames back to back in one stream.
-      val b2bIdx = all.indices.filter(i => all(i).left.width == w && all(i).left.height == h).take(3)
+      // Different frames back to back in one stream, overflowing cells among them.
+      val full = all.indices.filter(i => all(i).left.width == w && all(i).left.height == h)
+      val b2bIdx = full.filter(i => !all(i).label.startsWith("blocks")).take(2) :+ tputIndex
       val b2b = new GridScoreboard(b2bIdx.map(expected), "back to back " + b2bIdx.map(all(_).label).mkString(" + "))
-      streamFrames(dut, p, b2bIdx.map(i => (all(i).left, all(i).right)), Traffic(0.1, 0.1), rnd, b2b.check,
+      streamFrames(dut.clock, chain, p, b2bIdx.map(i => (all(i).left, all(i).right)), Traffic(0.1, 0.1), rnd, b2b.check,
         choppyBound(p, w, h, b2bIdx.length), "back to back")
       assert(b2b.board.ok, b2b.board.report)
       println(s"  ${p.name}: ${b2b.board.report}")
+
+      // The stand-alone GridVector fed the same golden lattices at up to one node per clock: no gaps and no stalls,
+      // heavy output back-pressure, or random traffic; then every full-size lattice back to back with no gaps.
+      var stalled = 0L
+      def stalls: Long = peek(dut.io.latticeStalls).toLong
+      for (((c, exp), i) <- all.zip(expected).zipWithIndex) {
+        val traffic = i % 3 match {
+          case 0 => noStall
+          case 1 => Traffic(0.0, 0.9)
+          case _ => Traffic(rnd.nextDouble() * 0.5, rnd.nextDouble() * 0.5)
+        }
+        val board = new GridScoreboard(Seq(exp), c.label + " (lattice input)")
+        val before = stalls
+        val cycles = streamLattice(dut, p, c.left.width, c.left.height, Seq(lattices(i)), traffic, rnd, board.check, c.label)
+        assert(board.board.ok, board.board.report)
+        stalled += stalls - before
+        println(f"  ${p.name}: ${board.board.report}, ${lattices(i).count} nodes in $cycles cycles, input stalled ${stalls - before} (input gaps ${traffic.inputGap}%.2f, output stalls ${traffic.outputStall}%.2f)")
+      }
+      val b2bLattice = new GridScoreboard(full.map(expected), s"${full.length} lattices back to back (lattice input)")
+      val before = stalls
+      val b2bCycles = streamLattice(dut, p, w, h, full.map(lattices), Traffic(0.0, 0.3), rnd, b2bLattice.check,
+        "lattices back to back")
+      assert(b2bLattice.board.ok, b2bLattice.board.report)
+      stalled += stalls - before
+      println(s"  ${p.name}: ${b2bLattice.board.report}, $b2bCycles cycles, input stalled ${stalls - before}")
+      assert(stalled > 0, "the lattice input never stalled: the slot-reuse stall is not exercised")
     }
   }
+}
+
+/** The spec's one Verilator build: the [[GridVectorChain]] as the lead uses it, plus a stand-alone [[GridVector]]
+  * fed with lattice values directly (two's complement bits on the port, -1 = none) sharing the frame size ports, and
+  * a count of the cycles its input was offered but not taken.
+  */
+class GridVectorTestTop(p: ElasParams) extends chisel3.Module {
+  import chisel3._
+  import chisel3.util.Decoupled
+  val io = IO(new Bundle {
+    val chain = new GridVectorChainIO(p)
+    val lattice = Flipped(Decoupled(new Framed(UInt((p.dispBits + 1).W))))
+    val grid = Decoupled(new Framed(new GridCellPair(p)))
+    val latticeStalls = Output(UInt(32.W))
+  })
+  val chain = Module(new GridVectorChain(p))
+  chain.io <> io.chain
+  val unit = Module(new GridVector(p))
+  unit.io.in.valid := io.lattice.valid
+  unit.io.in.bits.data := io.lattice.bits.data.asSInt
+  unit.io.in.bits.sof := io.lattice.bits.sof
+  unit.io.in.bits.eol := io.lattice.bits.eol
+  unit.io.in.bits.eof := io.lattice.bits.eof
+  io.lattice.ready := unit.io.in.ready
+  unit.io.frameWidth := io.chain.frameWidth
+  unit.io.frameHeight := io.chain.frameHeight
+  io.grid <> unit.io.out
+  val stalls = RegInit(0.U(32.W))
+  when(io.lattice.valid && !unit.io.in.ready) { stalls := stalls + 1.U }
+  io.latticeStalls := stalls
 }
 
 /** `make simulate STAGE=grid` (for the lead to wire into sim/Simulate.scala): one frame through [[GridVectorChain]]
@@ -205,7 +288,7 @@ object GridRun {
     val workDir = java.nio.file.Paths.get("build", "sim-cache", s"${p.name}-grid").toAbsolutePath
     StreamTester.simulate(new GridVectorChain(p), workDir, cache = true) { dut =>
       StreamTester.reset(dut)
-      cycles = GridVectorSpec.streamFrames(dut, p, Seq((left, right)), StreamTester.noStall, new Random(0),
+      cycles = GridVectorSpec.streamFrames(dut.clock, dut.io, p, Seq((left, right)), StreamTester.noStall, new Random(0),
         (i, beat) => {
           val (gy, gx) = ((i / gw).toInt, (i % gw).toInt)
           if (framing.isEmpty && (beat.sof != (i == 0) || beat.eol != (gx == gw - 1) || beat.eof != (i == gh.toLong * gw - 1)))
