@@ -8,8 +8,11 @@ import chisel3.util._
   * Input: the [[SupportFilter]] stream (lattice raster order, every node, -1 = none, sof / eol / eof). Node (j, i)
   * sits at pixel (u, v) = (min(i step, W - 1), min(j step, H - 1)); frameWidth / frameHeight are sampled at the
   * input's start of frame (so the top holds them until the lattice stream of the frame begins; video IP holds them
-  * for the whole frame), giving Gw = ceil(W / gridSize), Gh = ceil(H / gridSize). A support d marks d-1..d+1
-  * (clipped to 0..dispMax) in cell (v / gridSize, x / gridSize), x = u (left view) or u - d (right view).
+  * for the whole frame). A support d marks d-1..d+1 (clipped to 0..dispMax) in cell (v / gridSize, x / gridSize),
+  * x = u (left view) or u - d (right view). No divider: u and v are walked as quotient and remainder by gridSize,
+  * and (u - d) / gridSize subtracts d / gridSize and d mod gridSize from a table (2^dispBits entries). The grid size
+  * follows from the stream: Gw - 1 = the cell column of a lattice row's last node (u = W - 1), Gh - 1 = the cell
+  * row of the frame's last node.
   * Output: one beat per grid cell in grid raster order (eol = last cell of a grid row, eof = last cell): the
   * smallest storedDisparities disparities of the 3x3 dilation (cells inside the grid) of the marks, ascending,
   * -1 = unused slot.
@@ -29,7 +32,9 @@ import chisel3.util._
   * same read port (marks have priority) and ORed (vertical dilation); a cell ORs three such columns (horizontal)
   * and a priority encoder takes `lanes` lowest set bits per cycle (lowest bit = m & -m, an adder carry chain and an
   * OR-tree encoder). A cell takes max(ceil(storedDisparities / lanes), 4) + 1 cycles without read-port contention
-  * ([[GridVector.cellCycles]]), far below the gridSize^2 pixel clocks of one cell at 1 pixel per clock.
+  * ([[GridVector.cellCycles]]; 21 at storedDisparities 20 with 1 lane), far below the gridSize^2 pixel clocks of
+  * one cell at 1 pixel per clock (400 at gridSize 20). Exception: at gridSize 2 a cell has only 4 pixel clocks and
+  * the stage back-pressures (about 1.3x the pixel time); gridSize >= 3 keeps up.
   */
 class GridVector(p: ElasParams) extends Module {
   private val gs = p.gridSize
@@ -51,50 +56,59 @@ class GridVector(p: ElasParams) extends Module {
     val out = Decoupled(new Framed(new GridCellPair(p)))
   })
 
-  private def div(x: UInt): UInt = GridVector.divide(x, gs)
-
   // ---- frame state ----
   val width = RegInit(0.U(p.colBits.W))
   val height = RegInit(0.U(p.rowBits.W))
-  val gw = RegInit(1.U(colW.W)) // grid columns of the frame
-  val gh = RegInit(1.U(rowW.W)) // grid rows of the frame
+  val gw = RegInit(1.U(colW.W)) // grid columns of the frame: column of the last node of a lattice row + 1
   val inBusy = RegInit(false.B) //   lattice nodes of a frame are still expected
   val emitBusy = RegInit(false.B) // grid rows of a frame are still to be emitted
   val emitRow = RegInit(0.U(rowW.W)) // the grid row being (or next to be) emitted
   val markedRow = RegInit(0.U(rowW.W)) // grid row of the last node through the mark pipeline
-  val markedAll = RegInit(false.B) //    the frame's last node went through the mark pipeline
+  val markedAll = RegInit(false.B) //    the frame's last node went through the mark pipeline (markedRow = Gh - 1)
 
-  // ---- input: node position ----
-  val nodeU = RegInit(0.U(p.colBits.W))
-  val nodeV = RegInit(0.U(p.rowBits.W))
-  val inRow = RegInit(0.U(rowW.W)) // nodeV / gridSize
+  // ---- input: node position (u, v) and its grid cell, kept as quotient and remainder by gridSize (no divider) ----
+  private val remW = log2Ceil(gs)
+  class Position(posW: Int) extends Bundle {
+    val pos = UInt(posW.W)
+    val cell = UInt(colW.max(rowW).W)
+    val rem = UInt(remW.max(1).W)
+  }
+  /** The next lattice position: pos + step, or the last pixel limit - 1 (the step is at most gridSize: <= 1 carry). */
+  def advance(at: Position, limit: UInt): Position = {
+    val next = Wire(chiselTypeOf(at))
+    val delta = Mux(at.pos +& p.candidateStep.U < limit, p.candidateStep.U, limit - 1.U - at.pos)
+    val rem = at.rem +& delta
+    val carry = rem >= gs.U
+    next.pos := at.pos + delta
+    next.cell := at.cell + carry
+    next.rem := Mux(carry, rem - gs.U, rem)
+    next
+  }
+  def origin[T <: Position](gen: T): T = { val o = Wire(gen); o.pos := 0.U; o.cell := 0.U; o.rem := 0.U; o }
+  val nodeU = RegInit(origin(new Position(p.colBits)))
+  val nodeV = RegInit(origin(new Position(p.rowBits)))
 
   val start = io.in.valid && io.in.bits.sof && !inBusy && !emitBusy
-  io.in.ready := Mux(inBusy, inRow < emitRow +& 3.U, !io.in.bits.sof || !emitBusy)
+  io.in.ready := Mux(inBusy, nodeV.cell < emitRow +& 3.U, !io.in.bits.sof || !emitBusy)
   val accept = io.in.fire && (inBusy || start)
   val w = Mux(start, io.frameWidth, width)
   val h = Mux(start, io.frameHeight, height)
-  val u = Mux(start, 0.U, nodeU)
-  val v = Mux(start, 0.U, nodeV)
-  val row = Mux(start, 0.U, inRow)
+  val u = Mux(start, origin(new Position(p.colBits)), nodeU)
+  val v = Mux(start, origin(new Position(p.rowBits)), nodeV)
 
   when(start) {
     width := io.frameWidth; height := io.frameHeight
-    gw := div(io.frameWidth - 1.U) + 1.U
-    gh := div(io.frameHeight - 1.U) + 1.U
     inBusy := true.B; emitBusy := true.B
     emitRow := 0.U; markedRow := 0.U; markedAll := false.B
-    nodeV := 0.U; inRow := 0.U // the start beat is node (0, 0) and no row ends on it (Lw >= 2)
+    nodeV := v // the start beat is node (0, 0) and no row ends on it (Lw >= 2)
   }
   when(accept) {
     when(io.in.bits.eol) {
-      val nextV = Mux(v +& p.candidateStep.U < h, v + p.candidateStep.U, h - 1.U)
-      nodeU := 0.U
-      nodeV := nextV
-      inRow := div(nextV)
+      nodeU := origin(new Position(p.colBits))
+      nodeV := advance(v, h)
       when(io.in.bits.eof) { inBusy := false.B }
     }.otherwise {
-      nodeU := Mux(u +& p.candidateStep.U < w, u + p.candidateStep.U, w - 1.U)
+      nodeU := advance(u, w)
     }
   }
 
@@ -103,28 +117,34 @@ class GridVector(p: ElasParams) extends Module {
     val node = Bool() //    a lattice node (with or without support)
     val support = Bool()
     val rightOk = Bool() // u - d >= 0 (always for checked supports; kept as the golden model keeps it)
-    val bits = UInt(nd.W)
+    val d = UInt(p.dispBits.W)
     val slot = UInt(2.W)
     val row = UInt(rowW.W)
     val colL = UInt(colW.W)
     val colR = UInt(colW.W)
+    val eol = Bool()
     val last = Bool()
   }
-  val d = io.in.bits.data
-  val x = u.zext -& d
+  // right view: (u - d) / gridSize from u's quotient and remainder and a table of d / gridSize, d mod gridSize
+  val d = io.in.bits.data.asUInt(p.dispBits - 1, 0)
+  val dQuot = VecInit((0 until (1 << p.dispBits)).map(k => (k / gs).U))(d)
+  val dRem = VecInit((0 until (1 << p.dispBits)).map(k => (k % gs).U(remW.max(1).W)))(d)
+  val colR = u.cell.zext -& dQuot.zext -& (u.rem < dRem).asUInt.zext // negative exactly when u - d < 0
   def idle[T <: Data](gen: T)(valid: T => Bool): T = { val w = Wire(gen); w := DontCare; valid(w) := false.B; w }
   val s1 = RegInit(idle(new Mark)(_.node))
   s1.node := accept
-  s1.support := d >= 0.S
-  s1.rightOk := x >= 0.S
-  s1.bits := ((7.U(3.W) << d.asUInt(p.dispBits - 1, 0)) >> 1)(nd - 1, 0) // d-1, d, d+1 clipped to 0..dispMax
-  s1.slot := row(1, 0)
-  s1.row := row
-  s1.colL := div(u)
-  s1.colR := div(x.asUInt(p.colBits - 1, 0))
+  s1.support := io.in.bits.data >= 0.S
+  s1.rightOk := colR >= 0.S
+  s1.d := d
+  s1.slot := v.cell(1, 0)
+  s1.row := v.cell
+  s1.colL := u.cell
+  s1.colR := colR.asUInt
+  s1.eol := io.in.bits.eol
   s1.last := io.in.bits.eof
   val s2 = RegInit(idle(new Mark)(_.node))
   s2 := s1
+  val markBits = ((7.U(3.W) << s2.d) >> 1)(nd - 1, 0) // d-1, d, d+1 clipped to 0..dispMax
 
   val slotBase = VecInit((0 until slots).map(s => (s * colsMax).U(log2Ceil(slots * colsMax + 1).W)))
   def address(slot: UInt, col: UInt): UInt = (slotBase(slot) +& col)(addrW - 1, 0)
@@ -149,7 +169,7 @@ class GridVector(p: ElasParams) extends Module {
   val markRead = s1.node && s1.support // marks have the read ports
   val fIssue = !fDone && fK =/= 3.U && !markRead
   val fSlot = (emitRow + fK + 3.U)(1, 0) // slot of row emitRow - 1 + fK
-  val fExists = MuxLookup(fK, false.B)(Seq(0.U -> (emitRow =/= 0.U), 1.U -> true.B, 2.U -> (emitRow + 1.U < gh)))
+  val fExists = MuxLookup(fK, false.B)(Seq(0.U -> (emitRow =/= 0.U), 1.U -> true.B, 2.U -> (!markedAll || emitRow < markedRow)))
   val fAddr = address(fSlot, fCol)
   val rdL = memL.read(Mux(markRead, address(s1.slot, s1.colL), fAddr), markRead || fIssue)
   val rdR = memR.read(Mux(markRead, address(s1.slot, s1.colR), fAddr), markRead || fIssue)
@@ -178,7 +198,7 @@ class GridVector(p: ElasParams) extends Module {
     val old = Mux(prev.en && prev.addr === addr, prev.data, Mux((valid(s2.slot) >> col)(0), rd, 0.U))
     last.en := en
     last.addr := addr
-    last.data := old | s2.bits
+    last.data := old | markBits
     when(en) {
       mem.write(addr, last.data)
       valid(s2.slot) := valid(s2.slot) | UIntToOH(col(log2Ceil(colsMax + 1) - 1, 0), colsMax)
@@ -188,6 +208,7 @@ class GridVector(p: ElasParams) extends Module {
   markView(memR, validR, rdR, s2.colR, s2.node && s2.support && s2.rightOk)
   when(s2.node) {
     markedRow := s2.row
+    when(s2.eol) { gw := s2.colL + 1.U } // every lattice row ends at u = W - 1; row 0 is through long before emission
     when(s2.last) { markedAll := true.B }
   }
 
@@ -261,7 +282,7 @@ class GridVector(p: ElasParams) extends Module {
     is(sEmit) {
       when(outFree && fDone) {
         val eol = gx === gw - 1.U
-        val lastRow = emitRow === gh - 1.U
+        val lastRow = markedAll && emitRow === markedRow
         outValid := true.B
         outBits.data.left := resL
         outBits.data.right := resR
@@ -296,33 +317,23 @@ object GridVector {
   /** Grid-row slots per view: rows gy - 1 .. gy + 1 being emitted plus row gy + 2 being marked. */
   val slots: Int = 4
 
-  /** Disparities the priority encoder takes per cycle: the fewest that keep a cell within gridSize^2 / 2 cycles. */
+  /** Disparities the priority encoder takes per cycle: the fewest that keep a cell within gridSize^2 / 2 cycles;
+    * where nothing does (gridSize 2 or 3), the fewest that hide the extraction behind the 4-cycle column fetch.
+    */
   def lanes(p: ElasParams): Int = {
     val budget = p.gridSize * p.gridSize / 2
-    (1 to p.storedDisparities).find(l => (p.storedDisparities + l - 1) / l + 1 <= budget).getOrElse(p.storedDisparities)
+    (1 to p.storedDisparities).find(l => cellCycles(p, l) <= budget).getOrElse((p.storedDisparities + 3) / 4)
   }
 
   /** Cycles per cell without read-port contention: extraction (at least the 4 cycles of the next column's fetch),
-    * then the output transfer.
+    * then the output transfer. Within the gridSize^2 pixel clocks of a cell for gridSize >= 3; at gridSize 2 (4
+    * pixel clocks per cell) the stage cannot keep up with 1 pixel per clock and back-pressures.
     */
-  def cellCycles(p: ElasParams): Int = math.max((p.storedDisparities + lanes(p) - 1) / lanes(p), 4) + 1
+  def cellCycles(p: ElasParams, lanes: Int): Int = math.max((p.storedDisparities + lanes - 1) / lanes, 4) + 1
+  def cellCycles(p: ElasParams): Int = cellCycles(p, lanes(p))
 
   /** Cycles to emit one grid row of `w` pixels: two column fetches to prime, then every cell. */
   def rowCycles(p: ElasParams, w: Int): Int = 2 * 4 + p.gridCount(w) * cellCycles(p)
-
-  /** (m, s) with floor(x / n) = (x m) >> s for every x < 2^bits, found and checked exhaustively at elaboration. */
-  def reciprocal(n: Int, bits: Int): (BigInt, Int) = {
-    val base = bits + log2Ceil(n)
-    (base to base + 8).iterator.map(s => ((BigInt(1) << s) + n - 1) / n -> s).find { case (m, s) =>
-      (0 until (1 << bits)).forall(x => ((BigInt(x) * m) >> s) == x / n)
-    }.getOrElse(throw new IllegalArgumentException(s"gridSize = $n: no reciprocal for $bits-bit values"))
-  }
-
-  /** floor(x / n) for a constant n, as a constant multiply (no divider). */
-  def divide(x: UInt, n: Int): UInt = {
-    val (m, s) = reciprocal(n, x.getWidth)
-    ((x * m.U) >> s).asUInt
-  }
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Grid", "marks", slots * p.gridColsMax, 2 * (p.dispMax + 1),

@@ -30,11 +30,20 @@ class GridVectorSpec extends AnyFlatSpec {
     }
   }
 
-  it should "divide by gridSize exactly with a constant multiply for every value of its operand widths" in {
-    for (n <- Seq(2, 3, 5, 7, 16, 20, 25, 100, 255, 256); bits <- Seq(4, 9, 11, 13, 14)) {
-      val (m, s) = GridVector.reciprocal(n, bits) // checks every x < 2^bits itself
-      assert(((BigInt((1 << bits) - 1) * m) >> s) == ((1 << bits) - 1) / n)
+  it should "elaborate at the edges of the legal parameters (one grid column, dispMax + 1 not a power of two, several lanes)" in {
+    val edges = Seq(
+      ElasParams(name = "one-column", maxWidth = 200, maxHeight = 16, dispMax = 15, gridSize = 256, storedDisparities = 16,
+        fillC = 15),
+      ElasParams(name = "odd-range", maxWidth = 333, maxHeight = 100, dispMax = 100, storedDisparities = 101, gridSize = 7),
+      ElasParams(name = "lanes", maxWidth = 64, maxHeight = 32, dispMax = 31, candidateStep = 2, gridSize = 2,
+        storedDisparities = 32, fillC = 31))
+    for (p <- edges) {
+      val sv = circt.stage.ChiselStage.emitSystemVerilog(new GridVector(p), Array.empty[String],
+        VerilogEmitter.firtoolOptions.filterNot(_ == "--split-verilog"))
+      assert(sv.contains("module GridVector"), s"${p.name}: no GridVector module")
+      println(s"  ${p.name}: ${GridVector.lanes(p)} lane(s), ${GridVector.cellCycles(p)} cycles per cell, ${GridVector.memorySummary(p).head}")
     }
+    assert(GridVector.lanes(edges(2)) > 1)
   }
 
   it should "match the golden grid vectors of both views at config small" in {
