@@ -55,7 +55,7 @@ def full():
 
 def quick():
     """Small configurations (128x64) for CI: the default window, and the two other window sizes."""
-    return [Point("quick", "small", 31, 20, 5), Point("quick", "small", 31, 10, 3), Point("quick", "small", 15, 20, 7)]
+    return [Point("quick", "small", 31, 20, 5), Point("quick", "small", 31, 10, 3), Point("quick", "small", 15, 10, 7)]
 
 
 def points(grid):

@@ -100,7 +100,10 @@ object ConfigJson {
       require(ctor(k) && k != "name", s"config spec '$spec': unknown parameter '$k' (legal: ${(ctor - "name").toSeq.sorted.mkString(", ")})")
       k -> v
     }.toMap
-    val own = Map("name" -> parts(0), "supportLanes" -> base.supportLanes, "denseLanes" -> base.denseLanes)
+    // Like the named presets, fillC follows dispMax (min(default, dispMax)) unless given.
+    val fillC = overrides.get("dispMax").filter(_ => !overrides.contains("fillC") && base.fillC == math.min(ElasParams().fillC, base.dispMax))
+      .flatMap(_.toIntOption).map(d => math.min(ElasParams().fillC, d)).getOrElse(base.fillC)
+    val own = Map("name" -> parts(0), "supportLanes" -> base.supportLanes, "denseLanes" -> base.denseLanes, "fillC" -> fillC)
     val text = fields(base).filter(f => ctor(f._1)).map { case (k, v0) =>
       val v = own.getOrElse(k, v0)
       val r = overrides.get(k).map(x => if (x.toDoubleOption.isDefined) x else render(x)).getOrElse(render(v))
