@@ -70,7 +70,9 @@ def evaluate(config_json, resolution, work, golden, evaluator, data, cache_dir=N
         if not os.access(b, os.X_OK):
             raise AccuracyError(f"{b} not built (make golden, or set IELAS_GOLDEN / IELAS_EVAL)")
     h = hashlib.sha256()
-    for part in (open(config_json, "rb").read(), common.sha256_file(golden).encode(),
+    with open(config_json, "rb") as fh:
+        config_bytes = fh.read()
+    for part in (config_bytes, common.sha256_file(golden).encode(),
                  common.sha256_file(evaluator).encode(), PAIRS_VERSION.encode(), repr(plist).encode()):
         h.update(part + b"\0")
     key = h.hexdigest()

@@ -18,7 +18,8 @@ source hash) and golden-model hash are the current ones; --force (FORCE=1) runs 
 Environment: SWEEP_RESULTS (CSV), SWEEP_CACHE (synthesis cache; accuracy under its accuracy/), SWEEP_WORK,
 IELAS_GOLDEN, IELAS_EVAL, IELAS_DATA, SWEEP_ELAB_TIMEOUT (s, default 3600), SYNTH_TIMEOUT (s, default 3600),
 SYNTH_MEM_MB (default 8192), SWEEP_VERILOG_CMD (default `make --no-print-directory verilog CONFIG={config}`),
-SWEEP_SYNTH_CMD (default `scripts/synth.sh {config} {verilog}`).
+SWEEP_SYNTH_CMD (default `scripts/synth.sh {config} {verilog}`); for the tests, SWEEP_VERILOG_ROOT (default
+build/verilog; `make verilog` writes build/verilog/POINT) and SWEEP_SBT_LOCK.
 """
 import argparse
 import datetime
@@ -64,8 +65,9 @@ def elaborate(cfg, verilog_dir, work, timeout):
     """`make verilog` for the configuration; returns (log text, error or None). sbt runs one at a time."""
     cmd = env("SWEEP_VERILOG_CMD", "make --no-print-directory verilog CONFIG={config}").format(
         config=cfg, verilog=verilog_dir)
-    os.makedirs(os.path.join(ROOT, "build"), exist_ok=True)
-    with open(os.path.join(ROOT, "build", "sweep-sbt.lock"), "w") as lock:
+    lock_path = env("SWEEP_SBT_LOCK", os.path.join(ROOT, "build", "sweep-sbt.lock"))
+    os.makedirs(os.path.dirname(lock_path), exist_ok=True)
+    with open(lock_path, "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         shutil.rmtree(verilog_dir, ignore_errors=True)
         try:
@@ -150,7 +152,7 @@ def run(point, grid_dir, force=False):
     reasons = []
 
     # 2. elaboration
-    verilog_dir = os.path.join(ROOT, "build", "verilog", point)
+    verilog_dir = os.path.join(env("SWEEP_VERILOG_ROOT", os.path.join(ROOT, "build", "verilog")), point)
     log(point, "elaborating (make verilog)")
     text, err = elaborate(cfg, verilog_dir, work, int(env("SWEEP_ELAB_TIMEOUT", "3600")))
     design = None
