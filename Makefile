@@ -26,7 +26,7 @@ VERILOG_DIR = build/verilog/$(CONFIG_NAME)
 
 .PHONY: help deps deps-sim deps-golden deps-synth configs golden golden-test verilog lint simulate compare run \
         test test-golden test-hw test-full bench eval synth sweep clean \
-        sweep-configs sweep-point test-sweep
+        sweep-configs sweep-point sweep-hwcheck test-sweep
 
 help: ## this list
 	@echo "Streaming iELAS stereo accelerator generator"
@@ -138,12 +138,15 @@ ifeq ($(SWEEP),quick)
 else ifeq ($(SWEEP),full)
 	@$(MAKE) --no-print-directory build/sweep/configs/.done
 	@start=$$(date +%s); $(MAKE) --no-print-directory $(addprefix sweep-point-,$(shell python3 scripts/sweep/grid.py names full)); \
-	  echo "sweep: points done in $$(( $$(date +%s) - start )) s"
-	python3 scripts/sweep/agree.py --grid full
-	$(SWEEP_PY) scripts/sweep/report.py --grid full
+	  python3 scripts/sweep/agree.py --grid full || echo "sweep: WARNING: sum of modules and whole top disagree"; \
+	  $(SWEEP_PY) scripts/sweep/report.py --grid full --wall $$(( $$(date +%s) - start )); \
+	  python3 scripts/sweep/check.py --grid full
 else
 	@echo "sweep: SWEEP must be quick or full"; exit 2
 endif
+
+sweep-hwcheck: $(SWEEP_NEEDS) build/sweep/configs/.done ## full-size pairs through Verilator vs golden and the cycle model, 4 points
+	python3 scripts/sweep/hwcheck.py $(if $(STAGE_HW),--stage $(STAGE_HW))
 
 test-sweep: $(SWEEP_NEEDS) $(SWEEP_PY) # the sweep scripts' tests, then the quick sweep (for `make test`)
 	python3 scripts/sweep/test_sweep.py

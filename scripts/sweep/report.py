@@ -79,6 +79,9 @@ def plots(rows, outdir, prefix=""):
         made.append(path)
 
     w5 = lambda r: r["windowSize"] == "5"  # noqa: E731
+
+    def ticks(ax, key, filter_fn):
+        ax.set_xticks(sorted({int(num(r, key)) for r in ok if filter_fn(r) and num(r, key) is not None}))
     # BRAM vs storedDisparities, Yosys (solid) and the generator's own accounting (dashed, by capacity)
     fig, ax = plt.subplots(figsize=(6.4, 4))
     for g, pts in series(w5, "storedDisparities", "BRAM36eq", lambda r: (r["resolution"], int(r["dispMax"]))).items():
@@ -86,7 +89,8 @@ def plots(rows, outdir, prefix=""):
         gen = series(lambda r: w5(r) and (r["resolution"], int(r["dispMax"])) == g, "storedDisparities",
                      "gen_memory_bram36", lambda r: 0).get(0)
         if gen:
-            ax.plot(*zip(*gen), ls="--", color=line.get_color(), label=f"{g[0]} d{g[1]} generator")
+            ax.plot(*zip(*gen), ls="--", marker="x", color=line.get_color(), label=f"{g[0]} d{g[1]} generator")
+    ticks(ax, "storedDisparities", w5)
     ax.set_xlabel("storedDisparities")
     ax.set_ylabel("BRAM36 equivalents")
     ax.set_title("Block RAM vs stored disparities (windowSize 5)")
@@ -96,6 +100,7 @@ def plots(rows, outdir, prefix=""):
     fig, ax = plt.subplots(figsize=(6.4, 4))
     for g, pts in series(w5, "dispMax", "LUT", lambda r: (r["resolution"], int(r["storedDisparities"]))).items():
         ax.plot(*zip(*pts), marker="o", label=f"{g[0]} s{g[1]}")
+    ticks(ax, "dispMax", w5)
     ax.set_xlabel("dispMax")
     ax.set_ylabel("LUT")
     ax.set_title("LUTs vs disparity range (windowSize 5)")
@@ -107,6 +112,7 @@ def plots(rows, outdir, prefix=""):
         for g, pts in series(w5, "storedDisparities", f"{pset}_bad3",
                              lambda r: (r["resolution"], int(r["dispMax"]))).items():
             ax.plot(*zip(*pts), marker="o", label=f"{g[0]} d{g[1]}")
+        ticks(ax, "storedDisparities", w5)
         ax.set_xlabel("storedDisparities")
         ax.set_title(f"{pset} parameter set")
         ax.legend(fontsize=7)
@@ -117,7 +123,9 @@ def plots(rows, outdir, prefix=""):
     res = sorted({r["resolution"] for r in ok if num(r, "fps_200MHz") is not None},
                  key=lambda x: -int(next(r["maxWidth"] for r in ok if r["resolution"] == x)))
     for ax, key, label in ((axes[0], "fps_200MHz", "frames/s at 200 MHz"), (axes[1], "latency_rows", "latency (rows)")):
-        vals = [max(num(r, key) for r in ok if r["resolution"] == x and num(r, key) is not None) for x in res]
+        vals = [num(by_point(ok, NAMED_POINTS[x]), key) if x in NAMED_POINTS and by_point(ok, NAMED_POINTS[x])
+                and num(by_point(ok, NAMED_POINTS[x]), key) is not None else
+                max(num(r, key) for r in ok if r["resolution"] == x and num(r, key) is not None) for x in res]
         names = [f"{x}\n{next(r['maxWidth'] + 'x' + r['maxHeight'] for r in ok if r['resolution'] == x)}" for x in res]
         bars = ax.bar(names, vals)
         ax.bar_label(bars, labels=[fmt(v) for v in vals])
@@ -126,8 +134,8 @@ def plots(rows, outdir, prefix=""):
             ax.scatter(names, paper, color="red", zorder=3, label="iELAS paper")
             ax.legend(fontsize=7)
         ax.set_ylabel(label)
-    axes[0].set_title("Throughput (cycle model)")
-    axes[1].set_title("Latency (cycle model)")
+    axes[0].set_title("Throughput (cycle model, named points)")
+    axes[1].set_title("Latency (cycle model, named points)")
     save(fig, "fps_latency_vs_resolution.png")
     return made
 
@@ -174,7 +182,7 @@ def how_to_choose(rows, provisional):
     return text
 
 
-def markdown(rows, agreement, plot_files, grid_name, wall, outdir):
+def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None):
     missing = missing_stages([r for r in rows if r.get("top_stages")])
     provisional = bool(missing)
     stages = sorted({r.get("top_stages", "") for r in rows if r.get("top_stages")})
@@ -281,6 +289,31 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir):
     else:
         L += ["Not run yet (`python3 scripts/sweep/agree.py --grid full`).", ""]
 
+    L += ["## Hardware against the golden model and the cycle model", ""]
+    if hwcheck and hwcheck.get("points"):
+        stages_checked = sorted({e["stage"] for e in hwcheck["points"]})
+        L += [f"`make sweep-hwcheck` (scripts/sweep/hwcheck.py, commit {hwcheck.get('commit', '?')}, "
+              f"{hwcheck.get('date', '?')} UTC): a full-size pair through the Verilator model of the point's "
+              f"configuration up to stage `{', '.join(stages_checked)}`, compared value for value with the golden "
+              "dump of the same configuration, and its cycles beside the cycle model.", ""]
+        if "top" not in stages_checked:
+            L += [f"> {MARK}: checked up to `{', '.join(stages_checked)}`, not the disparity output (`top`): the "
+                  "accuracy columns are not yet confirmed on the hardware.", ""]
+        L += ["| point | pair | stage | values compared | bit-exact | cycles measured | cycles model | |",
+              "|---|---|---|---:|---|---:|---:|---|"]
+        for e in hwcheck["points"]:
+            if "error" in e:
+                L.append(f"| {e['point']} | {e.get('pair', '')} | {e['stage']} | | | | | failed: {e['error']} |")
+                continue
+            rel = "equal" if e["cycles_measured"] == e["cycles_model"] else (
+                "within" if e["within_model"] else "**ABOVE the model**")
+            L.append(f"| {e['point']} | {e['pair']} ({e['size']}) | {e['stage']} | {fmt(e['values_compared'])} | "
+                     f"{'yes' if e['bit_exact'] else '**NO**'} | {fmt(e['cycles_measured'])} | "
+                     f"{fmt(e['cycles_model'])} | {rel} |")
+        L.append("")
+    else:
+        L += ["Not run yet (`make sweep-hwcheck`).", ""]
+
     if plot_files:
         L += ["## Plots", ""]
         for p in plot_files:
@@ -313,8 +346,8 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir):
           "back-pressure takes the no-stall bound of INTERFACES.md section 4, cycles = W*H + latencyRows*W + c, "
           "with latencyRows and c from `IElas.latencyRows` / `IElas.cycleSlack` (the same figures the stage tests "
           "check as a bound). cycles/px = cycles / (W*H); fps = 200 MHz / cycles (no blanking counted). "
-          "The issue asks for at least two points per resolution, kitti d255 among them, to be run through the "
-          "Verilator hardware and agree exactly: not done yet (the top is incomplete).",
+          "At least two points per resolution, kitti d255 among them, go through the Verilator hardware "
+          "(`make sweep-hwcheck`, section above).",
           "- **Accuracy**: the golden `ielas` model with the point's configuration (robotics and its middlebury "
           "twin), fresh process per pair, scored as docs/EVALUATION.md defines it: bad-3 = % of ground-truth pixels "
           "with |d - gt| > 3, invalid counted as bad; D1 = |err| > 3 px and > 5 % of gt, invalid = bad; density = % "
@@ -351,8 +384,12 @@ def main():
     if os.path.exists(os.path.join(data_dir, "agreement.json")):
         with open(os.path.join(data_dir, "agreement.json")) as fh:
             agreement = json.load(fh)
+    hwcheck = None
+    if args.grid == "full" and os.path.exists(os.path.join(data_dir, "hwcheck.json")):
+        with open(os.path.join(data_dir, "hwcheck.json")) as fh:
+            hwcheck = json.load(fh)
     plot_files = [] if args.no_plots else plots(rows, data_dir)
-    text = markdown(rows, agreement, plot_files, args.grid, args.wall, os.path.dirname(md_path))
+    text = markdown(rows, agreement, plot_files, args.grid, args.wall, os.path.dirname(md_path), hwcheck)
     with open(md_path, "w") as fh:
         fh.write(text)
     print(f"report: wrote {os.path.relpath(md_path, ROOT)}" +
