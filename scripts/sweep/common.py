@@ -5,6 +5,7 @@ import hashlib
 import os
 import re
 import sys
+import tempfile
 
 sys.dont_write_bytecode = True
 
@@ -104,7 +105,11 @@ class Results:
 
     def _lock(self):
         os.makedirs(os.path.dirname(os.path.abspath(self.path)), exist_ok=True)
-        fh = open(self.path + ".lock", "w")
+        # The lock lives outside the (committed) results directory.
+        locks = os.path.join(tempfile.gettempdir(), "ielas-sweep-locks")
+        os.makedirs(locks, exist_ok=True)
+        name = hashlib.sha256(os.path.abspath(self.path).encode()).hexdigest()[:24]
+        fh = open(os.path.join(locks, name + ".lock"), "w")
         fcntl.flock(fh, fcntl.LOCK_EX)
         return fh
 

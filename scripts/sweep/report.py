@@ -260,7 +260,7 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None)
         for res, point in NAMED_POINTS.items():
             pp = PAPER[res]
             L.append(f"| iELAS paper, {res} | {pp['size']} | {fmt(pp['LUT'])} | {fmt(pp['FF'])} | {pp['BRAM36eq']} "
-                     f"| {pp['fps']} | a frame (frame buffers) |")
+                     f"| {pp['fps']} | over a frame (whole-frame buffers) |")
             r = by_point(rows, point)
             if r:
                 L.append(f"| this generator, {point} | {r['maxWidth']}x{r['maxHeight']} | {fmt(r.get('LUT'))} | "
