@@ -7,9 +7,12 @@ quick: build/sweep-quick/results.csv + agreement.json      -> build/sweep-quick/
 Every number in the output comes from those files; nothing is typed here except the paper's figures.
 """
 import argparse
+import csv
 import json
 import os
+import subprocess
 import sys
+import time
 
 sys.dont_write_bytecode = True
 here = os.path.dirname(os.path.abspath(__file__))
@@ -182,7 +185,7 @@ def how_to_choose(rows, provisional):
     return text
 
 
-def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None):
+def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None, runs=None):
     missing = missing_stages([r for r in rows if r.get("top_stages")])
     provisional = bool(missing)
     stages = sorted({r.get("top_stages", "") for r in rows if r.get("top_stages")})
@@ -204,9 +207,13 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None)
               "top is complete: every point whose Verilog changed is redone, accuracy comes from the cache.", ""]
     L += [f"Points: {len(rows)} of {len(expected)} recorded, {n_ok} ok, {n_synth} with synthesis figures"
           + (f"; not yet run: {', '.join(absent)}" if absent else "") + ".",
-          f"Sum of recorded point wall times: {fmt(sum(num(r, 'wall_seconds') or 0 for r in rows), 0)} s"
-          + (f"; last `make sweep` run: {wall} s" if wall else "") + " (2 shared cores; the synthesis cache makes "
-          "reruns cheap).", ""]
+          f"Sum of the recorded points' wall times: {fmt(sum(num(r, 'wall_seconds') or 0 for r in rows), 0)} s "
+          "(2 cores shared with other jobs; the synthesis and accuracy caches make reruns cheap)."
+          + (f" This `make sweep` run: {wall} s." if wall else ""), ""]
+    if runs:
+        L += ["`make sweep SWEEP=full` runs (wall time, whole command: configurations, points, check, page):", "",
+              "| date (UTC) | commit | wall s |", "|---|---|---:|"]
+        L += [f"| {r['date']} | {r['commit']} | {r['wall_seconds']} |" for r in runs] + [""]
 
     L += ["## Commands", "",
           "```",
@@ -388,8 +395,23 @@ def main():
     if args.grid == "full" and os.path.exists(os.path.join(data_dir, "hwcheck.json")):
         with open(os.path.join(data_dir, "hwcheck.json")) as fh:
             hwcheck = json.load(fh)
+    runs = []
+    if args.grid == "full":  # the wall time of every full sweep run, kept across sessions
+        runs_csv = os.path.join(data_dir, "runs.csv")
+        if args.wall:
+            new = not os.path.exists(runs_csv)
+            with open(runs_csv, "a", newline="") as fh:
+                w = csv.writer(fh, lineterminator="\n")
+                if new:
+                    w.writerow(["date", "commit", "wall_seconds"])
+                w.writerow([time.strftime("%Y-%m-%d %H:%M", time.gmtime()), subprocess.run(
+                    ["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip(),
+                    args.wall])
+        if os.path.exists(runs_csv):
+            with open(runs_csv, newline="") as fh:
+                runs = list(csv.DictReader(fh))
     plot_files = [] if args.no_plots else plots(rows, data_dir)
-    text = markdown(rows, agreement, plot_files, args.grid, args.wall, os.path.dirname(md_path), hwcheck)
+    text = markdown(rows, agreement, plot_files, args.grid, args.wall, os.path.dirname(md_path), hwcheck, runs)
     with open(md_path, "w") as fh:
         fh.write(text)
     print(f"report: wrote {os.path.relpath(md_path, ROOT)}" +
