@@ -171,6 +171,26 @@ def how_to_choose(rows, provisional):
                          f"{num(w3, 'robotics_bad3'):.2f} to {num(w7, 'robotics_bad3'):.2f}")
         if parts:
             out.append(f"- **{res}**: " + "; ".join(parts) + ".")
+        # Accuracy advice (from the golden model: final): the cheapest setting within a margin of the best.
+        acc = []
+        for pset in grid.PARAMETER_SETS:
+            k = f"{pset}_bad3"
+            ds = sorted((int(r["dispMax"]), num(r, k)) for r in rows if r["resolution"] == res
+                        and r["storedDisparities"] == "20" and r["windowSize"] == "5" and num(r, k) is not None)
+            ss = sorted((int(r["storedDisparities"]), num(r, k)) for r in rows if r["resolution"] == res
+                        and r["dispMax"] == str(dnamed) and r["windowSize"] == "5" and num(r, k) is not None)
+            if ds:
+                lo = min(v for _, v in ds)
+                d_ok = next(d for d, v in ds if v <= lo + 0.5)
+                acc.append(f"{pset}: dispMax {d_ok} is the smallest within 0.5 points of the best bad-3 "
+                           f"({lo:.2f} %; " + ", ".join(f"d{d} {v:.2f}" for d, v in ds) + ")")
+            if ss:
+                lo = min(v for _, v in ss)
+                s_ok = next(x for x, v in ss if v <= lo + 0.1)
+                acc.append(f"storedDisparities {s_ok} is the smallest within 0.1 points of the best at dispMax "
+                           f"{dnamed} (" + ", ".join(f"s{x} {v:.2f}" for x, v in ss) + ")")
+        if acc:
+            out.append(f"  Accuracy ({res}, golden model, final for these configurations): " + "; ".join(acc) + ".")
         best = [r for r in rows if r["resolution"] == res and num(r, "robotics_bad3") is not None]
         if best:
             for pset in grid.PARAMETER_SETS:
