@@ -317,6 +317,18 @@ class ReportAndCheckTest(unittest.TestCase):
                                        "DenseMatcher+LrCheck+PostProcess") for r in rows]
         self.assertNotIn(report.MARK, report.markdown(complete, None, [], "full", None, "/tmp"))
 
+    def test_hardware_check_section(self):
+        hw = {"points": [{"point": "kitti-d255-s20-w5", "stage": "descriptor", "pair": "k", "size": "1241x376",
+                          "values_compared": 100, "bit_exact": True, "cycles_measured": 10, "cycles_model": 11,
+                          "within_model": True},
+                         {"point": "tsukuba-d63-s20-w5", "stage": "descriptor", "pair": "t", "size": "640x480",
+                          "values_compared": 100, "bit_exact": False, "cycles_measured": 12, "cycles_model": 11,
+                          "within_model": False}]}
+        md = report.markdown(fake_rows(), None, [], "full", None, "/tmp", hw)
+        self.assertIn("| kitti-d255-s20-w5 | k (1241x376) | descriptor | 100 | yes | 10 | 11 | within |", md)
+        self.assertIn("| **NO** | 12 | 11 | **ABOVE the model** |", md)
+        self.assertIn("accuracy columns are not yet confirmed on the hardware", md)
+
     def test_full_check_allows_four_failures_but_not_kitti_d255(self):
         rows = fake_rows()
         self.assertEqual(check.problems(rows, "full", None, "/nonexistent", __file__), [])
