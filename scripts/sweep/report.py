@@ -232,8 +232,8 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
           + (f" This `make sweep` run: {wall} s." if wall else ""), ""]
     if runs:
         L += ["`make sweep SWEEP=full` runs (wall time, whole command: configurations, points, check, page):", "",
-              "| date (UTC) | commit | wall s |", "|---|---|---:|"]
-        L += [f"| {r['date']} | {r['commit']} | {r['wall_seconds']} |" for r in runs] + [""]
+              "| date (UTC) | commit | wall s | points run (the others were up to date) |", "|---|---|---:|---:|"]
+        L += [f"| {r['date']} | {r['commit']} | {r['wall_seconds']} | {r.get('points_run', '?')} |" for r in runs] + [""]
 
     L += ["## Commands", "",
           "```",
@@ -420,13 +420,16 @@ def main():
         runs_csv = os.path.join(data_dir, "runs.csv")
         if args.wall:
             new = not os.path.exists(runs_csv)
+            # Points (re)run by this invocation: rows dated from its start on (minute resolution).
+            since = time.strftime("%Y-%m-%d %H:%M", time.gmtime(time.time() - float(args.wall) - 59))
+            ran = sum(r.get("date", "") >= since for r in rows)
             with open(runs_csv, "a", newline="") as fh:
                 w = csv.writer(fh, lineterminator="\n")
                 if new:
-                    w.writerow(["date", "commit", "wall_seconds"])
+                    w.writerow(["date", "commit", "wall_seconds", "points_run"])
                 w.writerow([time.strftime("%Y-%m-%d %H:%M", time.gmtime()), subprocess.run(
                     ["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip(),
-                    args.wall])
+                    args.wall, ran])
         if os.path.exists(runs_csv):
             with open(runs_csv, newline="") as fh:
                 runs = list(csv.DictReader(fh))
