@@ -278,6 +278,23 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
     L += ["Accuracy pairs: " + "; ".join(sorted({f"{r['resolution']}: {r['accuracy_pairs']}" for r in rows
                                                  if r.get("accuracy_pairs")})) + ".", ""]
 
+    per_pair = []
+    cache = os.path.join(outdir, "sweep", "cache", "accuracy") if grid_name == "full" else None
+    for point in (NAMED_POINTS.values() if cache and os.path.isdir(cache) else ()):
+        for pset in grid.PARAMETER_SETS:
+            cname = grid.by_name(point).config_name(pset)
+            files = sorted((f for f in os.listdir(cache) if f.rsplit("-", 1)[0] == cname),
+                           key=lambda f: os.path.getmtime(os.path.join(cache, f)))
+            if files:
+                with open(os.path.join(cache, files[-1])) as fh:
+                    a = json.load(fh)
+                per_pair += [f"| {point} | {pset} | {x['pair']} | {x['region']} | {x['bad3']:.2f} | {x['d1']:.2f} | "
+                             f"{x['density']:.2f} |" for x in a["pairs"]]
+    if per_pair:
+        L += ["Per pair at the named points (bad-3 and D1 with invalid = bad, %):", "",
+              "| point | parameter set | pair | region | bad-3 | D1 | density |", "|---|---|---|---|---:|---:|---:|"]
+        L += per_pair + [""]
+
     if grid_name == "full":
         L += ["## Against the iELAS paper", "",
               "The paper's figures are for the whole accelerator (Vivado, Virtex-7 XC7VX485T; Table II resources, "
