@@ -25,7 +25,8 @@ CONFIG_NAME = $(notdir $(basename $(CONFIG)))
 VERILOG_DIR = build/verilog/$(CONFIG_NAME)
 
 .PHONY: help deps deps-sim deps-golden deps-synth configs golden golden-test verilog lint simulate compare run \
-        test test-golden test-hw test-full bench eval synth sweep clean
+        test test-golden test-hw test-full bench eval synth sweep clean \
+        sweep-configs sweep-point sweep-hwcheck test-sweep
 
 help: ## this list
 	@echo "Streaming iELAS stereo accelerator generator"
@@ -105,8 +106,51 @@ synth: deps-synth ## Yosys resource table for one configuration
 	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
 	scripts/synth.sh $(CONFIG) $(VERILOG_DIR)
 
-sweep: deps-synth ## the parameter sweep (SWEEP=quick|full)
-	@echo "sweep: not implemented yet"; exit 1
+# ---- parameter sweep (docs/sweep.md; scripts/sweep.sh, scripts/sweep/) ----
+# Each point is one target, so `make -j N sweep SWEEP=full` runs points in parallel (sbt steps take turns on a lock;
+# each Yosys run has SYNTH_TIMEOUT and SYNTH_MEM_MB). The golden model is IELAS_GOLDEN when set, else `make golden`.
+SWEEP_PY    := build/sweep-venv/bin/python
+SWEEP_GRID   = $(if $(filter quick-%,$(POINT)),quick,full)
+SWEEP_NEEDS  = deps-synth $(if $(IELAS_GOLDEN),,golden)
+
+$(SWEEP_PY): # matplotlib for the plots, in a venv of its own (pip from PyPI)
+	python3 -m venv build/sweep-venv
+	build/sweep-venv/bin/pip install -q 'matplotlib>=3.6,<4'
+
+build/sweep/configs/.done: $(SCALA_SRC) scripts/sweep/grid.py
+	scripts/sweep.sh configs full && touch $@
+build/sweep-quick/configs/.done: $(SCALA_SRC) scripts/sweep/grid.py
+	scripts/sweep.sh configs quick && touch $@
+
+sweep-configs: build/sweep/configs/.done ## configuration JSONs of the full grid, from ElasParams (one sbt run)
+
+sweep-point: $(SWEEP_NEEDS) ## one sweep point, POINT=<name> (scripts/sweep/grid.py names full): a row of docs/sweep/results.csv
+	@test -n "$(POINT)" || { echo "sweep-point: set POINT= (one of: $$(python3 scripts/sweep/grid.py names full | tr '\n' ' '))"; exit 1; }
+	@$(MAKE) --no-print-directory build/sweep$(if $(filter quick,$(SWEEP_GRID)),-quick)/configs/.done
+	python3 scripts/sweep/point.py $(POINT)
+
+sweep-point-%: $(SWEEP_NEEDS) build/sweep/configs/.done
+	python3 scripts/sweep/point.py $*
+
+sweep: $(SWEEP_NEEDS) $(SWEEP_PY) ## the parameter sweep: SWEEP=quick (CI, build/sweep-quick/) or SWEEP=full (docs/sweep.md)
+ifeq ($(SWEEP),quick)
+	scripts/sweep.sh quick
+else ifeq ($(SWEEP),full)
+	@$(MAKE) --no-print-directory build/sweep/configs/.done
+	@start=$$(date +%s); $(MAKE) --no-print-directory $(addprefix sweep-point-,$(shell python3 scripts/sweep/grid.py names full)); \
+	  python3 scripts/sweep/agree.py --grid full || echo "sweep: WARNING: sum of modules and whole top disagree"; \
+	  $(SWEEP_PY) scripts/sweep/report.py --grid full --wall $$(( $$(date +%s) - start )); \
+	  python3 scripts/sweep/check.py --grid full
+else
+	@echo "sweep: SWEEP must be quick or full"; exit 2
+endif
+
+sweep-hwcheck: $(SWEEP_NEEDS) build/sweep/configs/.done ## full-size pairs through Verilator vs golden and the cycle model, 4 points
+	python3 scripts/sweep/hwcheck.py $(if $(STAGE_HW),--stage $(STAGE_HW))
+
+test-sweep: $(SWEEP_NEEDS) $(SWEEP_PY) # the sweep scripts' tests, then the quick sweep (for `make test`)
+	python3 scripts/sweep/test_sweep.py
+	$(MAKE) --no-print-directory sweep SWEEP=quick
 
 clean: ## remove build outputs (keeps the sbt launcher cache)
 	rm -rf golden/build target project/target test_run_dir $(filter-out build/sbt-launcher,$(wildcard build/*))

@@ -7,12 +7,14 @@ Writes OUT/resources.json and OUT/resources.md and prints the table. docs/synthe
 """
 import argparse
 import concurrent.futures
+import fcntl
 import json
 import os
 import re
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 
 sys.dont_write_bytecode = True  # no __pycache__ in the source tree
@@ -146,18 +148,25 @@ def synthesise(design, module, workdir, args, glue_children=None):
 def cached(design, module, kind, args, salt, glue_children=None):
     key = design.content_hash(module, salt + "|" + kind)
     entry = os.path.join(args.cache, f"{module}-{kind}-{key[:16]}.json")
-    if os.path.exists(entry):
-        with open(entry) as fh:
-            result = json.load(fh)
-        if result.get("key") == key:
-            result["cached"] = True
-            return result
-    result = synthesise(design, module, os.path.join(args.out, "modules", f"{module}-{kind}"), args, glue_children)
-    result["key"] = key
-    os.makedirs(args.cache, exist_ok=True)
-    with open(entry + ".tmp", "w") as fh:
-        json.dump(result, fh, indent=1)
-    os.replace(entry + ".tmp", entry)
+    # Several flows may share a cache (`make -j sweep`): one lock per key (outside the cache, which is committed),
+    # so a module is synthesised once and the others wait for its result.
+    locks = os.path.join(tempfile.gettempdir(), "ielas-synth-locks")
+    os.makedirs(locks, exist_ok=True)
+    with open(os.path.join(locks, key[:32] + ".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if os.path.exists(entry):
+            with open(entry) as fh:
+                result = json.load(fh)
+            if result.get("key") == key:
+                result["cached"] = True
+                return result
+        result = synthesise(design, module, os.path.join(args.out, "modules", f"{module}-{kind}"), args, glue_children)
+        result["key"] = key
+        os.makedirs(args.cache, exist_ok=True)
+        tmp = f"{entry}.{os.getpid()}.tmp"
+        with open(tmp, "w") as fh:
+            json.dump(result, fh, indent=1)
+        os.replace(tmp, entry)
     result["cached"] = False
     return result
 

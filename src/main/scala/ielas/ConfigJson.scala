@@ -84,6 +84,34 @@ object ConfigJson {
     if (nameOrFile.endsWith(".json")) fromJson(new String(Files.readAllBytes(Paths.get(nameOrFile)), StandardCharsets.UTF_8), nameOrFile)
     else ElasParams.byName(nameOrFile)
 
+  /** `NAME:BASE[:KEY=VALUE,...]`: the configuration BASE (a name or JSON file) renamed NAME, with constructor
+    * fields overridden. The SAD lanes go back to BASE's own setting (0 = derived) unless overridden, so that they
+    * follow a changed dispMax or storedDisparities. Unknown keys fail, naming the key.
+    */
+  def fromSpec(spec: String): ElasParams = {
+    val parts = spec.split(":", 3)
+    require(parts.length >= 2 && parts(0).nonEmpty && parts(1).nonEmpty, s"config spec '$spec': expected NAME:BASE[:KEY=VALUE,...]")
+    val base = load(parts(1))
+    val ctor = fields(base).map(_._1).takeWhile(_ != "supportThresholdPercent").toSet
+    val overrides = (if (parts.length == 3) parts(2).split(",").toSeq.filter(_.nonEmpty) else Nil).map { kv =>
+      val i = kv.indexOf('=')
+      require(i > 0, s"config spec '$spec': '$kv' is not KEY=VALUE")
+      val (k, v) = (kv.take(i), kv.drop(i + 1))
+      require(ctor(k) && k != "name", s"config spec '$spec': unknown parameter '$k' (legal: ${(ctor - "name").toSeq.sorted.mkString(", ")})")
+      k -> v
+    }.toMap
+    // Like the named presets, fillC follows dispMax (min(default, dispMax)) unless given.
+    val fillC = overrides.get("dispMax").filter(_ => !overrides.contains("fillC") && base.fillC == math.min(ElasParams().fillC, base.dispMax))
+      .flatMap(_.toIntOption).map(d => math.min(ElasParams().fillC, d)).getOrElse(base.fillC)
+    val own = Map("name" -> parts(0), "supportLanes" -> base.supportLanes, "denseLanes" -> base.denseLanes, "fillC" -> fillC)
+    val text = fields(base).filter(f => ctor(f._1)).map { case (k, v0) =>
+      val v = own.getOrElse(k, v0)
+      val r = overrides.get(k).map(x => if (x.toDoubleOption.isDefined) x else render(x)).getOrElse(render(v))
+      s"""  "$k": $r"""
+    }.mkString("{\n", ",\n", "\n}\n")
+    fromJson(text, s"spec $spec")
+  }
+
   /** Reads the constructor fields back; derived fields in the file are ignored (they are recomputed). */
   def fromJson(text: String, origin: String = "<json>"): ElasParams = {
     val m = FlatJson.parse(text, origin)

@@ -43,4 +43,10 @@ class IElas(p: ElasParams) extends Module {
 
 object IElas {
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Descriptor.memorySummary(p)
+
+  /** The top's no-stall bound N + latencyRows * W + cycleSlack (INTERFACES.md §4); the sweep's cycle model reads
+    * these (`Main config`), so they must follow the stages wired in here.
+    */
+  def latencyRows(p: ElasParams): Int = Descriptor.latencyRows(p)
+  def cycleSlack(p: ElasParams): Int = Descriptor.cycleSlack(p)
 }

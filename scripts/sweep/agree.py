@@ -1,0 +1,114 @@
+#!/usr/bin/env python3
+"""Does the sum of per-module Yosys runs agree with a whole-top run? (the issue: equal RAMB36/RAMB18 counts, LUT
+and FF within 5 %, on two points). Runs scripts/synth.sh in `both` mode on each point's Verilog and writes the
+comparison to docs/sweep/agreement.json (full) or build/sweep-quick/agreement.json (quick), which report.py
+puts into docs/sweep.md.
+
+usage: agree.py --grid full|quick [POINT ...]    (full default: kitti-d255-s20-w5 tsukuba-d127-s20-w5)
+Exit 0 when every point agrees, 1 when one disagrees or fails (the JSON records it either way).
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+sys.dont_write_bytecode = True
+here = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, here)
+import common  # noqa: E402
+import grid  # noqa: E402
+
+ROOT = common.ROOT
+DEFAULT = {"full": ["kitti-d255-s20-w5", "tsukuba-d127-s20-w5"]}
+TOLERANCE_PCT = 5.0
+
+
+def compare(top, mods):
+    """The issue's criterion on two resource tables."""
+    def pct(k):
+        return 100.0 * (mods[k] - top[k]) / top[k] if top[k] else (0.0 if mods[k] == 0 else float("inf"))
+    c = {"LUT_diff_pct": round(pct("LUT"), 2), "FF_diff_pct": round(pct("FF"), 2),
+         "RAMB36E1_equal": mods["RAMB36E1"] == top["RAMB36E1"], "RAMB18E1_equal": mods["RAMB18E1"] == top["RAMB18E1"]}
+    c["agree"] = bool(c["RAMB36E1_equal"] and c["RAMB18E1_equal"] and abs(c["LUT_diff_pct"]) <= TOLERANCE_PCT
+                      and abs(c["FF_diff_pct"]) <= TOLERANCE_PCT)
+    return c
+
+
+def one(point, grid_dir, cache):
+    cfg = os.path.join(grid_dir, "configs", f"{point}.json")
+    verilog = os.path.join(ROOT, "build", "verilog", point)
+    entry = {"point": point}
+    start = time.time()
+    if not os.path.isdir(verilog) or not any(f.endswith(".sv") for f in os.listdir(verilog)):
+        proc = subprocess.run(["flock", os.path.join(ROOT, "build", "sweep-sbt.lock"), "make", "--no-print-directory",
+                               "verilog", f"CONFIG={cfg}"], cwd=ROOT, capture_output=True, text=True,
+                              stdin=subprocess.DEVNULL)
+        if proc.returncode != 0:
+            entry["error"] = "elaboration: " + common.elaboration_error(proc.stdout + proc.stderr)
+            return entry
+    entry["design_hash"] = common.design_hash(verilog)
+    out = os.path.join(grid_dir, "agree", point)
+    env = dict(os.environ, SYNTH_MODE="both", SYNTH_CACHE=cache, SYNTH_OUT=out,
+               SYNTH_TIMEOUT=os.environ.get("SYNTH_TIMEOUT") or "3600",
+               SYNTH_MEM_MB=os.environ.get("SYNTH_MEM_MB") or "8192")
+    env.pop("SYNTH_STRICT", None)
+    proc = subprocess.run(["scripts/synth.sh", cfg, verilog], cwd=ROOT, capture_output=True, text=True, env=env,
+                          stdin=subprocess.DEVNULL)
+    if proc.returncode != 0:
+        lines = [l for l in (proc.stderr + proc.stdout).splitlines() if l.strip()]
+        entry["error"] = "synthesis: " + (lines[-1] if lines else f"exit {proc.returncode}")
+        return entry
+    with open(os.path.join(out, "resources.json")) as fh:
+        res = json.load(fh)
+    keys = ("LUT", "FF", "RAMB36E1", "RAMB18E1", "BRAM36eq", "DSP48E1")
+    entry.update(top={k: res["top"]["resources"][k] for k in keys},
+                 modules={k: res["modules"]["resources"][k] for k in keys},
+                 top_seconds=res["top"]["seconds"], modules_seconds=res["modules"]["seconds"],
+                 top_lut_levels=res["top"]["lut_levels"], modules_lut_levels=res["modules"]["lut_levels"],
+                 stages=sorted(r["module"] for r in res["modules"]["modules"] if r["kind"] == "stage"),
+                 yosys=res["yosys"], flow=res["flow"], wall_seconds=round(time.time() - start, 1))
+    entry["comparison"] = compare(entry["top"], entry["modules"])
+    return entry
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--grid", choices=["full", "quick"], required=True)
+    ap.add_argument("points", nargs="*")
+    args = ap.parse_args()
+    pts = args.points or DEFAULT.get(args.grid) or [p.name for p in grid.points(args.grid)[:1]]
+    for p in pts:
+        grid.by_name(p)
+    if args.grid == "full":
+        grid_dir, cache = os.path.join(ROOT, "build", "sweep"), os.path.join(ROOT, "docs", "sweep", "cache")
+        out = os.path.join(ROOT, "docs", "sweep", "agreement.json")
+    else:
+        grid_dir = os.path.join(ROOT, "build", "sweep-quick")
+        cache, out = os.path.join(grid_dir, "cache"), os.path.join(grid_dir, "agreement.json")
+    entries = []
+    for p in pts:
+        print(f"agree: {p}: whole top and sum of modules", flush=True)
+        e = one(p, grid_dir, cache)
+        entries.append(e)
+        if "error" in e:
+            print(f"agree: {p}: {e['error']}")
+        else:
+            c = e["comparison"]
+            print(f"agree: {p}: LUT {e['modules']['LUT']} vs {e['top']['LUT']} ({c['LUT_diff_pct']:+.2f} %), "
+                  f"FF {e['modules']['FF']} vs {e['top']['FF']} ({c['FF_diff_pct']:+.2f} %), RAMB36 "
+                  f"{e['modules']['RAMB36E1']}/{e['top']['RAMB36E1']}, RAMB18 {e['modules']['RAMB18E1']}/"
+                  f"{e['top']['RAMB18E1']}: {'agree' if c['agree'] else 'DISAGREE'}")
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    with open(out, "w") as fh:
+        json.dump({"criterion": f"equal RAMB36E1 and RAMB18E1, LUT and FF within {TOLERANCE_PCT:g} %",
+                   "commit": subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True,
+                                            text=True).stdout.strip(),
+                   "date": time.strftime("%Y-%m-%d %H:%M", time.gmtime()), "points": entries}, fh, indent=1)
+    print(f"agree: wrote {os.path.relpath(out, ROOT)}")
+    return 0 if all("comparison" in e and e["comparison"]["agree"] for e in entries) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
