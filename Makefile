@@ -26,7 +26,7 @@ VERILOG_DIR = build/verilog/$(CONFIG_NAME)
 
 .PHONY: help deps deps-sim deps-golden deps-synth configs golden golden-test verilog lint simulate compare run \
         test test-golden test-hw test-full bench eval synth sweep clean \
-        sweep-configs sweep-point sweep-hwcheck test-sweep
+        sweep-configs sweep-point sweep-hwcheck test-sweep test-sim
 
 help: ## this list
 	@echo "Streaming iELAS stereo accelerator generator"
@@ -71,20 +71,28 @@ lint: ## verilator --lint-only -Wall on build/verilog/<config>/*.sv (+ lint.vlt 
 
 simulate: deps-sim ## Verilator model up to STAGE: writes STAGE's .npy files and cycles.txt to OUT
 	@test -n "$(LEFT)" -a -n "$(RIGHT)" || { echo "simulate: set LEFT= and RIGHT="; exit 1; }
+ifeq ($(STAGE),top)
+	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
+	scripts/sim.sh run $(CONFIG) --left $(abspath $(LEFT)) --right $(abspath $(RIGHT)) --out $(abspath $(OUT))
+else
 	$(call SBT_RUN,"Test/runMain ielas.sim.Simulate --config $(CONFIG) --stage $(STAGE) --left $(abspath $(LEFT)) --right $(abspath $(RIGHT)) --out $(abspath $(OUT))")
+endif
 
 compare: $(COMPARE) ## compare every .npy in A= and B= (0 only if >= 1 file compared and all equal)
 	@test -n "$(A)" -a -n "$(B)" || { echo "compare: set A= and B="; exit 1; }
 	$(COMPARE) $(A) $(B)
 
 run: golden verilog ## the main job: Verilog for kitti, then a stereo pair through the hardware in Verilator
-	$(call SBT_RUN,"Test/runMain ielas.sim.RunDemo --config $(CONFIG) $(if $(LEFT),--left $(abspath $(LEFT))) $(if $(RIGHT),--right $(abspath $(RIGHT))) $(if $(GT),--gt $(abspath $(GT)))")
+	scripts/sim.sh demo $(CONFIG) $(if $(LEFT),--left $(abspath $(LEFT))) $(if $(RIGHT),--right $(abspath $(RIGHT))) $(if $(GT),--gt $(abspath $(GT)))
 
 # ---- tests ----
-test: deps test-golden test-hw test-synth ## everything CI runs (small configurations; < 60 min cold on 2 cores)
+test: deps test-golden test-hw test-synth test-sim test-sweep ## everything CI runs (small configurations; < 60 min cold on 2 cores)
 	@$(MAKE) --no-print-directory verilog CONFIG=small
 	@$(MAKE) --no-print-directory verilog CONFIG=kitti
 	@echo "make test: all passed"
+
+test-sim: deps-sim golden
+	IELAS_GOLDEN=$(abspath $(GOLDEN)) python3 scripts/test_sim.py
 
 test-synth: deps-synth
 	python3 scripts/synth/test_synth.py
@@ -99,8 +107,10 @@ test-full: golden ## full-size frames end to end (not in CI)
 eval: golden ## accuracy tables: MODE=elas|ielas PRESET=robotics|middlebury or CONFIG=
 	scripts/eval.sh $(MODE) $(if $(PRESET),--preset $(PRESET),--config $(CONFIG)) $(EVAL_ARGS)
 
-bench: ## cycles/pixel, latency, simulator speed -> docs/performance.md
-	@echo "bench: not implemented yet (needs the whole accelerator)"; exit 1
+bench: golden ## cycles/pixel, latency, simulator speed -> docs/performance.md
+	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
+	scripts/sim.sh bench $(CONFIG) $(BENCH_ARGS)
+	cp build/bench/$(CONFIG_NAME)/performance.md docs/performance.md
 
 synth: deps-synth ## Yosys resource table for one configuration
 	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
@@ -114,6 +124,7 @@ SWEEP_GRID   = $(if $(filter quick-%,$(POINT)),quick,full)
 SWEEP_NEEDS  = deps-synth $(if $(IELAS_GOLDEN),,golden)
 
 $(SWEEP_PY): # matplotlib for the plots, in a venv of its own (pip from PyPI)
+	scripts/install-deps.sh venv
 	python3 -m venv build/sweep-venv
 	build/sweep-venv/bin/pip install -q 'matplotlib>=3.6,<4'
 
