@@ -251,8 +251,7 @@ class LatticeFill(p: ElasParams) extends Module {
     // nearest support below within sDelta px: offsets 1 .. slots - 1 of the ring, first hit wins
     val column = ring.map(_.read(col(i)))
     val below = (1 until slots).map { o =>
-      val slot = (procSlot +& o.U) % slots.U
-      val d = VecInit(column)(slot(slotBits - 1, 0))
+      val d = VecInit((0 until slots).map(s => column((s + o) % slots)))(procSlot) // row procJ + o
       val exists = procJ +& o.U < rowsIn
       val ok = exists && d >= 0.S && clip(vRaw +& (o * step).U, hLast) - v <= sDelta
       (ok, d.asUInt(dBits - 1, 0))

@@ -17,6 +17,19 @@ class LatticeFillSpec extends AnyFlatSpec {
 
   behavior of "LatticeFill (Descriptor -> SupportMatcher -> SupportFilter -> LatticeFill chain)"
 
+  it should "elaborate at every named configuration with both rules and keep up with 1 pixel per clock" in {
+    for (p0 <- ElasParams.named; rule <- FillRule.all) {
+      val p = p0.copy(fillRule = rule)
+      val dir = StreamTester.tmpDir(s"interp-elab/${p.name}-${rule.name}")
+      VerilogEmitter.emit(new LatticeFill(p), dir)
+      // a lattice row arrives at most once per step pixel rows: step * W clocks at 1 pixel per clock
+      val worst = (FrameSize.minWidth to p.maxWidth).map(w => (w, LatticeFill.rowCycles(p, p.latticeCount(w)), p.candidateStep * w))
+      val (w, cycles, budget) = worst.maxBy { case (_, c, b) => c.toDouble / b }
+      val bits = LatticeFill.memorySummary(p).map(_.bits).sum
+      println(f"  ${p.name}%-18s ${rule.name}%-5s: ${LatticeFill.slots(p)}%2d slots, $bits%7d memory bits; worst row $cycles cycles of $budget at W = $w")
+      assert(cycles <= budget, s"${p.name} ${rule.name}: a row of W = $w takes up to $cycles cycles > step * W = $budget")
+    }
+  }
   it should "match the golden filled lattice at config small (fill rule r7)" in {
     runSuite(ElasParams.byName("small"))
   }
