@@ -9,7 +9,8 @@ import chisel3.util._
   * Input: the [[SupportFilter]] stream (lattice raster order, every node, -1 = none, sof / eol / eof). Output: the
   * filled lattice (every node in 0..dispMax) with the same framing. The lattice size comes from the framing (first
   * eol gives Lw, eof gives Lh); frameWidth / frameHeight (sampled at the input start of frame) give the nodes' pixel
-  * positions min(i * step, W - 1), which only the paper rule needs.
+  * positions min(i * step, W - 1), which only the paper rule needs. The fill's start of frame comes rows after the
+  * pixel start of frame, so the top must hold the frame size ports until then (video IP holds them for the frame).
   *
   * Row storage. Each input lattice row goes into one of `slots` row slots as a list of its supports, (column, value)
   * in ascending column, plus a count: walking a row in order, the next support of the list is the nearest support
@@ -25,9 +26,11 @@ import chisel3.util._
   *   for the vertical pair below node (j, i) (the extra row: a clipped last row H - 1 may lie within sDelta); the
   *   full values of every slot sit in one memory per slot, so one cycle reads a whole column of the look-ahead:
   *   ring bits  = slots x latticeColsMax x (dispBits + 1)
-  *   above bits = latticeColsMax x (1 + coordBits + dispBits): per column the last support above (valid, pixel
+  *   lastAbove bits = latticeColsMax x (1 + coordBits + dispBits): per column the last support above (valid, pixel
   *   row, value), rewritten in full at lattice row 0 so nothing of the previous frame survives.
-  *   (kitti: R = 10, 13 slots: ring 13 x 250 x 9 = 29,250 bits, lists 13 x 250 x 16 = 52,000 bits.)
+  *   (kitti: R = 10, 13 slots: ring 13 x 250 x 9 = 29,250 bits, lists 13 x 250 x 16 = 52,000 bits, lastAbove
+  *   250 x 20 = 5,000 bits; r7: lists 4 x 250 x 16 = 16,000 bits, row above 250 x 8 = 2,000 bits.)
+  *   Vertical pairs read supports only (never filled values), so no filled row is kept.
   *
   * Schedule: 2 cycles per node (memory read, decide and emit) plus, r7 only, dispBits + 1 cycles per interpolated
   * pair of supports, so a row takes at most [[LatticeFill.rowCycles]] = 2 Lw + ceil(Lw / 2) (dispBits + 1) + 2
