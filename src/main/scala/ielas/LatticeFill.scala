@@ -59,6 +59,20 @@ class LatticeFill(p: ElasParams) extends Module {
   })
 
   def nextSlot(s: UInt): UInt = Mux(s === (slots - 1).U, 0.U, s + 1.U)
+  /** Writes `data` at `addr` one cycle later, from registers: no logic runs into a memory's write port (LUT-RAM
+    * writes are synchronous anyway, and the synthesis depth proxy would follow false paths through it). Safe here:
+    * a row is read at least one cycle after its last write (row wait, then read), and a node's entry of the row
+    * above is rewritten only after it was read.
+    */
+  def lateWrite[T <: Data](mem: SyncReadMem[T], en: Bool, addr: UInt, data: T): Unit = {
+    val e = RegNext(en, false.B)
+    val a = RegEnable(addr, en)
+    val d = RegEnable(data, en)
+    when(e) { mem.write(a, d) }
+  }
+  /** x * step as shifted adds (step is a small constant): Yosys would otherwise spend a DSP on it. */
+  def timesStep(x: UInt): UInt =
+    (0 until log2Ceil(step + 1)).filter(b => ((step >> b) & 1) == 1).map(b => (x << b).pad(coordW)).reduce(_ +& _)
 
   // ---- input side: each row's supports into its slot's list ----
   val inBusy = RegInit(false.B) //    lattice values of a frame are still expected
@@ -92,9 +106,7 @@ class LatticeFill(p: ElasParams) extends Module {
   /** A column index as a row-memory address (the index is < colsMax whenever the read matters). */
   def col(x: UInt): UInt = x(log2Ceil(colsMax) - 1, 0)
   val list = SyncReadMem(slots * colsMax, UInt((idxW + dBits).W))
-  when(write && isSupport) {
-    list.write(listAddr(writeSlot, writeCnt), Cat(writeCol, io.in.bits.data.asUInt(dBits - 1, 0)))
-  }
+  lateWrite(list, write && isSupport, listAddr(writeSlot, writeCnt), Cat(writeCol, io.in.bits.data.asUInt(dBits - 1, 0)))
 
   when(start) {
     inBusy := true.B; procBusy := true.B; frameDone := false.B
@@ -118,7 +130,13 @@ class LatticeFill(p: ElasParams) extends Module {
 
   // ---- paper: the full values of every slot, one memory per slot (a column of the look-ahead per read) ----
   val ring = if (paper) Seq.fill(slots)(SyncReadMem(colsMax, valueType)) else Nil
-  for ((mem, s) <- ring.zipWithIndex) when(write && writeSlot === s.U) { mem.write(col(writeCol), io.in.bits.data) }
+  if (paper) { // as lateWrite, with one set of registers for all slots
+    val e = RegNext(write, false.B)
+    val slot = RegEnable(writeSlot, write)
+    val a = RegEnable(col(writeCol), write)
+    val d = RegEnable(io.in.bits.data, write)
+    for ((mem, s) <- ring.zipWithIndex) when(e && slot === s.U) { mem.write(a, d) }
+  }
 
   // ---- the walk over the rows ----
   val sIdle :: sRowWait :: sRead :: sNode :: sDiv :: Nil = Enum(5)
@@ -221,8 +239,8 @@ class LatticeFill(p: ElasParams) extends Module {
         state := sNode
       }
     }
+    lateWrite(above, doEmit, col(i), value)
     when(doEmit) {
-      above.write(col(i), value)
       when(pairStep) { segQ := qNext; segR := rNext }
       when(bHere) { segReady := false.B }
     }
@@ -239,7 +257,7 @@ class LatticeFill(p: ElasParams) extends Module {
 
     val aU = Reg(UInt(coordW.W))
     val u = clip(uRaw, wLast)
-    val bU = clip(bIdx * step.U, wLast)
+    val bU = clip(timesStep(bIdx), wLast)
     val horizontal = aValid && u - aU <= sDelta && kIn && bU - u <= sDelta
 
     // last support above in this column (valid, pixel row, value)
@@ -251,9 +269,10 @@ class LatticeFill(p: ElasParams) extends Module {
     val v = clip(vRaw, hLast)
     val topOk = procJ =/= 0.U && laValid && v - laV <= sDelta
 
-    // nearest support below within sDelta px: offsets 1 .. slots - 1 of the ring, first hit wins
+    // nearest support below within sDelta px: offsets 1 .. R + 1 of the ring (R + 2 is never within reach, and its
+    // slot may be the one being written), first hit wins
     val column = ring.map(_.read(col(i)))
-    val below = (1 until slots).map { o =>
+    val below = (1 to math.min(reach + 1, slots - 1)).map { o =>
       val d = VecInit((0 until slots).map(s => column((s + o) % slots)))(procSlot) // row procJ + o
       val exists = procJ +& o.U < rowsIn
       val ok = exists && d >= 0.S && clip(vRaw +& (o * step).U, hLast) - v <= sDelta
@@ -266,10 +285,8 @@ class LatticeFill(p: ElasParams) extends Module {
     value := Mux(bHere, bVal, Mux(horizontal, pair(aVal, bVal), Mux(vertical, pair(laVal, bottom), p.fillC.U)))
     doEmit := state === sNode && outFree
 
-    when(doEmit) {
-      when(bHere) { aU := u }
-      when(procJ === 0.U || bHere) { lastAbove.write(col(i), Cat(bHere, v, bVal)) } // row 0 clears the previous frame
-    }
+    when(doEmit && bHere) { aU := u }
+    lateWrite(lastAbove, doEmit && (procJ === 0.U || bHere), col(i), Cat(bHere, v, bVal)) // row 0 clears the previous frame
     // case counters for waveforms and the spec's coverage report live in the test (from the golden input)
   }
 
