@@ -37,10 +37,11 @@ import chisel3.util._
   * carried owner of the nearest covered pixel to its left (a row whose pixel 0 is uncovered has no covered pixel at
   * all and takes the cell row's last triangle). A primer computes the first K-1 cells of the next row into shadow
   * registers while the current row runs (one cell per clock), so row starts cost no cycles.
-  *   raster registers = 2 (window + shadow) x K x (1 + 6 spanBits)   (K = 9 at small, 54 at kitti)
+  *   raster registers = 2 (window + shadow) x K x (1 + 6 spanBits)   (K = 9 at small, 53 at kitti)
   *
   * '''Row banks''' (memories, combinational read ports; written by the loaders, tagged with frame parity and row):
-  *   plane banks = 2 x (latticeColsMax - 1) x planeCellBits (one cell row in use, the next loading)
+  *   corner banks = 2 x (latticeColsMax - 1) x 4 dispBits          (one cell row in use, the next loading)
+  *   plane banks  = 2 views x 2 x (latticeColsMax - 1) x 2 (3 x 32 + colBits + rowBits + 3)
   *   grid banks  = 2 x gridColsMax x 2 storedDisparities x (dispBits + 1) (one grid row in use, the next loading)
   * Nothing grows with the image height.
   *
@@ -93,7 +94,11 @@ class DenseMatcher(p: ElasParams) extends Module {
     val fp = Bool()
     val row = UInt(math.max(cellRowW, gridRowW).W)
   }
-  val planeBanks = Seq.fill(2)(Mem(cellsMax, new PlaneCell(p)))
+  // Plane banks are split by reader: the corners feed the rasteriser (primer and window shift), each view's planes
+  // feed that view's plane read, so every memory has at most two combinational read ports.
+  val cornerBanks = Seq.fill(2)(Mem(cellsMax, Vec(4, UInt(p.dispBits.W))))
+  val planeBanksL = Seq.fill(2)(Mem(cellsMax, Vec(2, new PlaneCoeffs(p))))
+  val planeBanksR = Seq.fill(2)(Mem(cellsMax, Vec(2, new PlaneCoeffs(p))))
   val planeFull = RegInit(VecInit(Seq.fill(2)(false.B)))
   val planeTag = Reg(Vec(2, new Tag))
   val gridBanks = Seq.fill(2)(Mem(p.gridColsMax, new GridCellPair(p)))
@@ -101,7 +106,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   val gridTag = Reg(Vec(2, new Tag))
 
   /** Fills the two banks alternately, one row per bank; a row's tag is (frame parity, row in frame). */
-  def loader[T <: Data](in: DecoupledIO[Framed[T]], banks: Seq[MemBase[T]], full: Vec[Bool], tag: Vec[Tag], depth: Int): Unit = {
+  def loader[T <: Data](in: DecoupledIO[Framed[T]], full: Vec[Bool], tag: Vec[Tag], depth: Int)(
+      write: (Int, UInt, T) => Unit): Unit = {
     val fill = RegInit(0.U(1.W))
     val col = RegInit(0.U(log2Ceil(depth + 1).W))
     val row = RegInit(0.U(tag(0).row.getWidth.W))
@@ -111,7 +117,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       val beatFp = Mux(in.bits.sof, !fp, fp)
       val beatRow = Mux(in.bits.sof, 0.U, row)
       val beatCol = Mux(in.bits.sof, 0.U, col)
-      for ((b, i) <- banks.zipWithIndex) when(fill === i.U) { b.write(beatCol(math.max(log2Ceil(depth), 1) - 1, 0), in.bits.data) }
+      for (i <- 0 until 2) when(fill === i.U) { write(i, beatCol(math.max(log2Ceil(depth), 1) - 1, 0), in.bits.data) }
       fp := beatFp
       col := beatCol + 1.U
       row := beatRow
@@ -125,8 +131,12 @@ class DenseMatcher(p: ElasParams) extends Module {
       }
     }
   }
-  loader(io.planes, planeBanks, planeFull, planeTag, cellsMax)
-  loader(io.grid, gridBanks, gridFull, gridTag, p.gridColsMax)
+  loader(io.planes, planeFull, planeTag, cellsMax) { (i, addr, cell) =>
+    cornerBanks(i).write(addr, cell.corners)
+    planeBanksL(i).write(addr, cell.left)
+    planeBanksR(i).write(addr, cell.right)
+  }
+  loader(io.grid, gridFull, gridTag, p.gridColsMax) { (i, addr, cell) => gridBanks(i).write(addr, cell) }
 
   def bankOf(full: Vec[Bool], tag: Vec[Tag], fp: Bool, row: UInt): (Bool, UInt) = {
     val hit = (0 until 2).map(i => full(i) && tag(i).fp === fp && tag(i).row === row)
@@ -251,8 +261,8 @@ class DenseMatcher(p: ElasParams) extends Module {
       lag := 1.U
       width := io.frameWidth
       height := io.frameHeight
-      lastCell := (io.frameWidth - 2.U) / step.U
-      lastCellRow := (io.frameHeight - 2.U) / step.U
+      lastCell := DenseMatcher.divConst(io.frameWidth - 2.U, step, colW)
+      lastCellRow := DenseMatcher.divConst(io.frameHeight - 2.U, step, rowW)
       inFp := !inFp
       sofPending := true.B
       genActive := true.B
@@ -285,7 +295,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     pJ := 0.U
   }
   val (pHit, pSel) = bankOf(planeFull, planeTag, pRow.fp, pRow.cr)
-  val pCorners = readBank(planeBanks, pSel, pJ, cellsMax).corners
+  val pCorners = readBank(cornerBanks, pSel, pJ, cellsMax)
   val (pH, pUp, pDown) = rowGeometry(pRow.cr, pRow.vIn)
   val pSpan = cellSpan(pJ, pJ <= lastCell, pCorners, pUp, pDown)
   when(pActive && !shadowFull && pHit) {
@@ -317,7 +327,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   when(aFire && a.u === 0.U) { shadowFull := false.B }
   // next window: shift by one cell when the next pixel enters the next cell
   val shiftCell = a.cu + (K - 1).U
-  val shiftCorners = readBank(planeBanks, planeSel, shiftCell, cellsMax).corners
+  val shiftCorners = readBank(cornerBanks, planeSel, shiftCell, cellsMax)
   val shiftSpan = cellSpan(shiftCell, shiftCell <= lastCell, shiftCorners, aUp, aDown)
   when(aFire && !rowEnd(a)) {
     when(nextCellCol(a)) {
@@ -338,8 +348,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val ownerCov = ((base << 1).asUInt + top)(cellW, 0)
     val owner = Mux(any, ownerCov, Mux(a.u === 0.U, fallback, carry(view)))
     when(aFire) { carry(view) := owner }
-    val cellData = readBank(planeBanks, planeSel, owner >> 1, cellsMax)
-    val planes = if (view == 0) cellData.left else cellData.right
+    val planes = readBank(if (view == 0) planeBanksL else planeBanksR, planeSel, owner >> 1, cellsMax)
     Mux(owner(0), planes(1), planes(0))
   }
 
@@ -496,11 +505,20 @@ class DenseMatcher(p: ElasParams) extends Module {
 }
 
 object DenseMatcher {
+  /** floor(n / d) for a constant d and n < 2^bits, as a multiply by a rounded-up reciprocal (exact for
+    * s = bits + ceil(log2 d): the error n (M d - 2^s) / (d 2^s) stays below 1/d).
+    */
+  def divConst(n: UInt, d: Int, bits: Int): UInt = {
+    val s = bits + log2Ceil(d)
+    val mul = (BigInt(1) << s) / d + 1
+    ((n(bits - 1, 0) * mul.U) >> s).asUInt
+  }
   /** Raster window cells: cu - 1 .. cu + ceil(dispMax / step). */
   def rasterCells(p: ElasParams): Int = 2 + (p.dispMax + p.candidateStep - 1) / p.candidateStep
   /** Bits of a scaled cut point (|x - s| * h <= max(maxWidth, dispMax) * step), signed. */
   def spanBits(p: ElasParams): Int = log2Ceil(math.max(p.maxWidth, p.dispMax + 1) * p.candidateStep + 1) + 2
-  def planeCellBits(p: ElasParams): Int = 4 * (3 * 32 + p.colBits + 1 + p.rowBits + 1) + 4 * p.dispBits
+  /** Both triangles' planes of one view: 2 x (a, b, c, anchorU, anchorV, valid). */
+  def planeBits(p: ElasParams): Int = 2 * (3 * 32 + p.colBits + 1 + p.rowBits + 1)
   def gridCellBits(p: ElasParams): Int = 2 * p.storedDisparities * (p.dispBits + 1)
   /** Cycles a frame costs beyond its pixels: the flush, the three pipeline registers, and the first row's planes
     * and primer when they have not arrived during the first dispMax steps.
@@ -508,8 +526,12 @@ object DenseMatcher {
   def cycleSlack(p: ElasParams): Int = p.dispMax + 4 + (p.latticeColsMax - 1) + rasterCells(p) + 4
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
-    MemoryUse("Dense", "planeBanks", p.latticeColsMax - 1, 2 * planeCellBits(p),
-      "2 cell rows of PlaneCells (both views' planes and corners), Mem with 4 combinational read ports"),
+    MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
+      "2 cell rows of the cells' corner disparities, Mem with 2 combinational read ports (primer, window shift)"),
+    MemoryUse("Dense", "planeBanksL", p.latticeColsMax - 1, 2 * planeBits(p),
+      "2 cell rows of both triangles' left planes, Mem with 1 combinational read port"),
+    MemoryUse("Dense", "planeBanksR", p.latticeColsMax - 1, 2 * planeBits(p),
+      "2 cell rows of both triangles' right planes, Mem with 1 combinational read port"),
     MemoryUse("Dense", "gridBanks", p.gridColsMax, 2 * gridCellBits(p),
       "2 grid rows of both views' candidates, Mem with 1 combinational read port"),
     MemoryUse("Dense", "descWindow", 3 * p.dispMax + 2, 8 * p.descriptorBytes,

@@ -17,6 +17,12 @@ class DenseMatcherSpec extends AnyFlatSpec {
   it should "match the golden dense maps at config small" in {
     DenseMatcherSpec.runSuite("small")
   }
+
+  // dispMax >= frame width is needed for a right-view row without any covered pixel; no image reaches it (lattice
+  // disparities stay below the node's column), so the streams are crafted and the expected map computed by hand.
+  it should "give every pixel of an uncovered right-view row the cell row's last triangle" in {
+    DenseMatcherSpec.runUncovered()
+  }
 }
 
 object DenseMatcherSpec {
@@ -174,6 +180,89 @@ object DenseMatcherSpec {
       bandsPair(128, 64, rnd), bandsPair(101, 50, rnd),
       Case("noise 128x64", TestImages.noise(128, 64, rnd), TestImages.noise(128, 64, rnd)),
       Case("flat 40x20", TestImages.flat(40, 20, 77), TestImages.flat(40, 20, 77)))
+  }
+
+  /** A 40x16 frame at dispMax 63 whose lattice is 63 everywhere: every right-view vertex lies left of column 0, so no
+    * right-view pixel is covered and each takes triangle (last cell, t = 1) of its cell row. Every triangle has its own
+    * constant plane (value = its index), all descriptors are equal (every SAD is 0) and the grid is empty, so the
+    * expected value is, by hand: -1 outside the margins, else the d in d_p-R..d_p+R (within 0..dispMax, target column
+    * legal) of the smallest prior P[|d - d_p|], the first in ascending d on ties, -1 if none; d_p = the owner's value,
+    * the left owner by the left-view formula of docs/ALGORITHM.md.
+    */
+  def runUncovered(): Unit = {
+    val p = ElasParams(name = "dense-narrow", maxWidth = 64, maxHeight = 16, dispMax = 63, fillC = 60)
+    val rnd = new Random(seed ^ 0x7e)
+    val (w, h, m, step, r) = (40, 16, p.descriptorMargin, p.candidateStep, p.planeRadius)
+    val (lw, lh) = (p.latticeCount(w), p.latticeCount(h))
+    val (cols, rows) = (lw - 1, lh - 1)
+    def value(view: Int, cr: Int, cc: Int, t: Int): Int = if (view == 0) 2 + 2 * cc + t + cr else 1 + 2 * cc + t + 3 * cr
+    val word = (0 until 16).foldLeft(BigInt(0))((acc, k) => acc | (BigInt(200) << (8 * k)))
+    val descs = Iterator.range(0, w * h).map(i => (word, word, i == 0, i % w == w - 1, i == w * h - 1))
+    val cells = Iterator.range(0, rows * cols).map { i =>
+      val (cr, cc) = (i / cols, i % cols)
+      CellBeat((0 until 2).map(v => (0 until 2).map(t => Seq(0, 0, value(v, cr, cc, t) << 16, 0, 0, 1))), Seq.fill(4)(p.dispMax),
+        i == 0, cc == cols - 1, i == rows * cols - 1)
+    }
+    val (gw, gh) = (p.gridCount(w), p.gridCount(h))
+    val grids = Iterator.range(0, gw * gh).map(i =>
+      GridBeat(Seq.fill(p.storedDisparities)(-1), Seq.fill(p.storedDisparities)(-1), i == 0, i % gw == gw - 1, i == gw * gh - 1))
+    def coord(k: Int, n: Int) = math.min(k * step, n - 1)
+    def expected(view: Int, u: Int, v: Int): Int = {
+      if (u < m || u > w - 1 - m || v < m || v > h - 1 - m) return -1
+      val cr = math.min(v / step, rows - 1)
+      val (cc, t) = if (view == 1) (cols - 1, 1) else {
+        val cc = math.min(u / step, cols - 1)
+        val (x0, cw, y0, ch) = (coord(cc, w), coord(cc + 1, w) - coord(cc, w), coord(cr, h), coord(cr + 1, h) - coord(cr, h))
+        (cc, if ((u - x0) * ch + (v - y0) * cw >= cw * ch) 1 else 0)
+      }
+      val dp = value(view, cr, cc, t)
+      var (best, bestCost) = (-1, Int.MaxValue)
+      for (d <- math.max(dp - r, 0) to math.min(dp + r, p.dispMax)) {
+        val target = if (view == 0) u - d else u + d
+        val cost = p.priorTable(math.abs(d - dp))
+        if (target >= m && target <= w - 1 - m && cost < bestCost) { best = d; bestCost = cost }
+      }
+      best
+    }
+    val board = new Scoreboard("dense uncovered right view")
+    simulate(new DenseMatcher(p), tmpDir("dense-narrow").resolve("verilator")) { dut =>
+      reset(dut)
+      poke(dut.io.frameWidth, w)
+      poke(dut.io.frameHeight, h)
+      val feeds = Seq(
+        new Feed[Framed[DescriptorPair], (BigInt, BigInt, Boolean, Boolean, Boolean)]("desc", dut.io.desc, descs,
+          (bits, b) => {
+            poke(bits.data.left, b._1); poke(bits.data.right, b._2)
+            poke(bits.sof, b._3); poke(bits.eol, b._4); poke(bits.eof, b._5)
+          }, 0.3, new Random(rnd.nextLong())),
+        new Feed[Framed[PlaneCell], CellBeat]("planes", dut.io.planes, cells, (bits, b) => {
+          for ((view, vi) <- Seq(bits.data.left, bits.data.right).zipWithIndex; t <- 0 until 2) {
+            val q = b.planes(vi)(t)
+            poke(view(t).a, q(0)); poke(view(t).b, q(1)); poke(view(t).c, q(2))
+            poke(view(t).anchorU, q(3)); poke(view(t).anchorV, q(4)); poke(view(t).valid, q(5) != 0)
+          }
+          for (k <- 0 until 4) poke(bits.data.corners(k), b.corners(k))
+          poke(bits.sof, b.sof); poke(bits.eol, b.eol); poke(bits.eof, b.eof)
+        }, 0.5, new Random(rnd.nextLong())),
+        new Feed[Framed[GridCellPair], GridBeat]("grid", dut.io.grid, grids, (bits, b) => {
+          for (k <- b.left.indices) { poke(bits.data.left(k), b.left(k)); poke(bits.data.right(k), b.right(k)) }
+          poke(bits.sof, b.sof); poke(bits.eol, b.eol); poke(bits.eof, b.eof)
+        }, 0.5, new Random(rnd.nextLong())))
+      var validRight = 0
+      runFeeds[Framed[DisparityPair], DenseBeat](dut.clock, feeds, dut.io.out, w.toLong * h,
+        o => DenseBeat(peek(o.data.left).toInt, peek(o.data.right).toInt, peek(o.sof), peek(o.eol), peek(o.eof)),
+        (i, beat) => {
+          val (u, v) = ((i % w).toInt, (i / w).toInt)
+          if (beat.right >= 0) validRight += 1
+          board.check(s"(x=$u, y=$v) view L", expected(0, u, v), beat.left)
+          board.check(s"(x=$u, y=$v) view R", expected(1, u, v), beat.right)
+          board.check(s"(x=$u, y=$v) sof", if (i == 0) 1 else 0, if (beat.sof) 1 else 0)
+          board.check(s"(x=$u, y=$v) eol", if (u == w - 1) 1 else 0, if (beat.eol) 1 else 0)
+          board.check(s"(x=$u, y=$v) eof", if (i == w * h - 1) 1 else 0, if (beat.eof) 1 else 0)
+        }, 0.3, rnd, 100000, "uncovered")
+      assert(board.ok, board.report)
+      println(s"  ${p.name}: ${board.report} ($validRight valid right-view disparities)")
+    }
   }
 
   def runSuite(config: String): Unit = {
