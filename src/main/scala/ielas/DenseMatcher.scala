@@ -24,7 +24,13 @@ import chisel3.util._
   *   left view:  reference descL(P) = winL(dispMax), targets descR(P - d) = winR(dispMax + d)
   *   right view: reference descR(P) = winR(dispMax), targets descL(P + d) = winL(dispMax - d)
   *   window registers = (dispMax + 1 + 2 dispMax + 1) x 128 bits   (small: 95 x 128; kitti: 767 x 128)
-  *   SAD16 units      = 2 (dispMax + 1) per clock (all disparities of both views; denseLanes is not used)
+  *   SAD16 units      = 2 (dispMax + 1) per clock (all disparities of both views, so every candidate set is
+  *                      served at one pixel per clock; denseLanes / denseLanesUsed are not used by this structure)
+  * Where the area goes at kitti (dispMax 255): 512 SAD16 units, 50 (2R+1 + storedDisparities per view) 12-bit
+  * 256:1 cost muxes and 767 x 128 window flip-flops, against 50 128-bit 256:1 descriptor muxes (about 5x the LUTs
+  * of the cost muxes plus SADs) for one read per candidate lane. A further halving is possible: the right view's
+  * cost at (P, d) equals the left view's at (P + d, d), so a per-d delay line of dispMax - d steps (12 bits,
+  * SRL-friendly) could replace the right view's dispMax + 1 SAD units.
   * Entries that fall into another row (or the flush after a frame) are never selected: a candidate is skipped
   * unless m <= t <= W-1-m, which keeps t in P's row. After the last beat of a frame the stage inserts dispMax flush
   * steps (input not ready) to bring the frame's last dispMax pixels through.
@@ -43,7 +49,14 @@ import chisel3.util._
   *   corner banks = 2 x (latticeColsMax - 1) x 4 dispBits          (one cell row in use, the next loading)
   *   plane banks  = 2 views x 2 x (latticeColsMax - 1) x 2 (3 x 32 + colBits + rowBits + 3)
   *   grid banks  = 2 x gridColsMax x 2 storedDisparities x (dispBits + 1) (one grid row in use, the next loading)
+  * The second grid row is there so that a grid row change costs no cycle (the next row loads while the current
+  * one is read); with one bank the pixel stream would wait gridColsMax cycles every gridSize rows.
   * Nothing grows with the image height.
+  *
+  * '''Framing.''' The descriptor stream is trusted to be well formed (the top checks the pixel framing): a frame is
+  * frameWidth x frameHeight beats from sof to eof, and the planes and grid streams carry the matching cell and grid
+  * rows. Frames may follow each other back to back in all three streams; row banks are tagged with a frame parity
+  * so the next frame's rows can load while the current frame ends.
   *
   * Pipeline (lockstep, stalls as a whole): A (window shift, SADs, owner, plane and grid reads) -> B (plane value
   * d_p, range lo..hi) -> C (candidate costs with the prior, first-minimum selection) -> output register.

@@ -101,15 +101,15 @@ object DenseMatcherSpec {
     override def toString: String = f"gaps desc $desc%.2f planes $planes%.2f grid $grid%.2f, output stalls $outputStall%.2f"
   }
 
-  /** Streams `frames` (same size) through the stage; returns the cycles of [[StreamTester.runFeeds]]. */
+  /** Streams `frames` through the stage (their sizes may differ: frameWidth / frameHeight change with each frame's
+    * first descriptor beat, where the stage samples them); returns the cycles of [[StreamTester.runFeeds]].
+    */
   def stream(dut: DenseMatcher, frames: Seq[Golden], traffic: Traffic3, rnd: Random, sink: (Long, DenseBeat) => Unit,
       maxCycles: Long, what: String): Long = {
-    val (w, h) = (frames.head.w, frames.head.h)
-    require(frames.forall(g => g.w == w && g.h == h), s"$what: frames of one run need the same size")
-    poke(dut.io.frameWidth, w)
-    poke(dut.io.frameHeight, h)
-    val desc = new Feed[Framed[DescriptorPair], (BigInt, BigInt, Boolean, Boolean, Boolean)]("desc", dut.io.desc,
-      frames.iterator.flatMap(descBeats), (bits, b) => {
+    val desc = new Feed[Framed[DescriptorPair], ((BigInt, BigInt, Boolean, Boolean, Boolean), Golden)]("desc", dut.io.desc,
+      frames.iterator.flatMap(g => descBeats(g).map((_, g))), (bits, bg) => {
+        val (b, g) = bg
+        if (b._3) { poke(dut.io.frameWidth, g.w); poke(dut.io.frameHeight, g.h) }
         poke(bits.data.left, b._1); poke(bits.data.right, b._2)
         poke(bits.sof, b._3); poke(bits.eol, b._4); poke(bits.eof, b._5)
       }, traffic.desc, new Random(rnd.nextLong()))
@@ -303,6 +303,13 @@ object DenseMatcherSpec {
       stream(dut, b2bFrames, tr, rnd, b2b.check, choppyBound(b2bFrames), "back to back")
       assert(b2b.board.ok, b2b.board.report)
       println(s"  ${p.name}: back to back: ${b2b.board.report} ($tr)")
+
+      // back to back with a new size every frame (KITTI 128x64, cones 111x57, 32x16, bands 101x50)
+      val sizes = Seq(0, 4, 7, 9).map(expected)
+      val mixed = new DenseScoreboard(sizes, "back to back, sizes " + sizes.map(g => s"${g.w}x${g.h}").mkString(", "))
+      stream(dut, sizes, tr, rnd, mixed.check, choppyBound(sizes), "back to back sizes")
+      assert(mixed.board.ok, mixed.board.report)
+      println(s"  ${p.name}: ${mixed.board.report}")
 
       runUncovered(p, dut, rnd)
     }
