@@ -81,10 +81,14 @@ class DenseMatcher(p: ElasParams) extends Module {
   private val gInW = log2Ceil(G + 1)
   private val spanW = DenseMatcher.spanBits(p)
   private val dispW = p.dispBits + 1 // signed disparity, -1 invalid
+  private val offW = log2Ceil(3 * R + 1) + 2 // lo - d_p + i for i <= 2R, signed
   private val costW = 14 //             SAD16 <= 4080 plus a prior >= -4096 fits 14 signed bits
   require(p.priorTable.take(R + 1).forall(v => v >= -(1 << 12) && v < (1 << 12)),
     s"priorTable entries 0..planeRadius must lie in -4096..4095 (got ${p.priorTable.take(R + 1)})")
-  require(S < 128 && 2 * R + 1 < 128, s"storedDisparities = $S and planeRadius = $R must keep both candidate lists below 128")
+  // The golden model's dense stage accepts at most 127 grid slots and plane range candidates; beyond that the
+  // hardware could not be verified.
+  require(S < 128, s"storedDisparities = $S is out of range for the dense stage (legal: 1..${math.min(127, D + 1)})")
+  require(2 * R + 1 < 128, s"planeRadius = $R (from sigma x sradius) is out of range for the dense stage (legal: 2..63)")
 
   val io = IO(new Bundle {
     val desc = Flipped(Decoupled(new Framed(new DescriptorPair(p.descriptorBytes))))
@@ -427,7 +431,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val lo = Vec(2, UInt((p.dispBits + 1).W))
     val hi = Vec(2, UInt((p.dispBits + 1).W))
     val empty = Vec(2, Bool())
-    val off = Vec(2, SInt(8.W)) // lo - d_p (in -R..R when the range is not empty)
+    val off = Vec(2, SInt(offW.W)) // lo - d_p (in -R..R when the range is not empty)
     val priorOn = Vec(2, Bool())
     val sof = Bool()
     val eol = Bool()
@@ -478,9 +482,10 @@ class DenseMatcher(p: ElasParams) extends Module {
   val result = (0 until 2).map { view =>
     val lo = c.lo(view)
     val hi = c.hi(view)
+    val listLive = c.grid(view).map(_ >= 0.S).scanLeft(true.B)(_ && _).tail
     val gridCands = (0 until S).map { k =>
       val d = c.grid(view)(k)
-      val present = (0 to k).map(i => c.grid(view)(i) >= 0.S).reduce(_ && _) // the list ends at the first -1
+      val present = listLive(k) // the list ends at the first -1
       val du = d.asUInt(p.dispBits - 1, 0)
       val inRange = !c.empty(view) && du >= lo && du <= hi
       val x = Wire(new Cand)
