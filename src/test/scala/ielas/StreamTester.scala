@@ -51,6 +51,7 @@ object StreamTester {
   /** Plain port access for single signals (reset, configuration inputs, status outputs). */
   def poke(port: UInt, value: BigInt): Unit = port.poke(value.U)
   def poke(port: Bool, value: Boolean): Unit = port.poke(value.B)
+  def poke(port: SInt, value: BigInt): Unit = port.poke(value.S)
   def peek(port: UInt): BigInt = port.peek().litValue
   def peek(port: SInt): BigInt = port.peek().litValue
   def peek(port: Bool): Boolean = port.peek().litToBoolean
