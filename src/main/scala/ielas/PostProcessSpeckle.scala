@@ -52,6 +52,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val frameWidth = Input(UInt(p.colBits.W))
     val frameHeight = Input(UInt(p.rowBits.W))
     val out = Decoupled(new Framed(SInt(vW.W)))
+    /** With io.out: the pixel lies in the frame's last row. */
+    val outLastRow = Output(Bool())
   })
 
   private def satAdd(a: UInt, b: UInt): UInt = { val s = a +& b; Mux(s >= cap.U, cap.U, s)(sW - 1, 0) }
@@ -237,11 +239,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val closed = Bool()
     val ptr = UInt(fW.W)
     val n = UInt(log2Ceil(L + 2).W) // chain length for this row
-    val sof = Bool(); val eol = Bool(); val eof = Bool()
+    val sof = Bool(); val eol = Bool(); val eof = Bool(); val lastRow = Bool()
     val virt = Bool()
   }
   val stages = Seq.fill(L + 1)(RegInit(0.U.asTypeOf(Valid(new Beat))))
   val outReg = RegInit(0.U.asTypeOf(Valid(new Framed(SInt(vW.W)))))
+  val outLast = RegInit(false.B)
+  io.outLastRow := outLast
   val advance = !outReg.valid || io.out.ready
   io.out.valid := outReg.valid
   io.out.bits := outReg.bits
@@ -266,6 +270,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   s0.bits.sof := !dVirt && dRowV === 0.U && dCol === 0.U
   s0.bits.eol := !dVirt && dCol === dWd - 1.U
   s0.bits.eof := !dVirt && dCol === dWd - 1.U && dRowV === dH - 1.U
+  s0.bits.lastRow := dRowV === dH - 1.U
   s0.bits.virt := dVirt
   when(issue) {
     when(dVirt || dCol === dWd - 1.U) { dCol := 0.U; dNext := dNext + 1.U }.otherwise { dCol := dCol + 1.U }
@@ -293,6 +298,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
         outReg.valid := true.B
         outReg.bits.data := Mux(remove, -1.S, b.value)
         outReg.bits.sof := b.sof; outReg.bits.eol := b.eol; outReg.bits.eof := b.eof
+        outLast := b.lastRow
       }
       when(b.virt || b.eol) { dDone := dDone + 1.U }
     }

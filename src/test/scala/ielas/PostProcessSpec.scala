@@ -20,6 +20,15 @@ class PostProcessSpec extends AnyFlatSpec {
   it should "match the golden speckle result at config small" in {
     runSpeckle("small")
   }
+
+  behavior of "PostProcess (stage post alone: lrcheck_L -> disparity)"
+
+  it should "match the golden disparity at config small (robotics: gaps G = 3, adaptive mean)" in {
+    runPost("small")
+  }
+  it should "match the golden disparity at config small-middlebury (corners, G = 32, median)" in {
+    runPost("small-middlebury")
+  }
 }
 
 object PostProcessSpec {
@@ -77,14 +86,15 @@ object PostProcessSpec {
   case class OutBeat(value: Int, sof: Boolean, eol: Boolean, eof: Boolean)
 
   /** Checks output beats of frames of one size against `expected(x, y)`. */
-  class MapScoreboard(stage: String, w: Int, h: Int, expected: (Int, Int) => Int) {
+  class MapScoreboard(stage: String, w: Int, h: Int, expected: (Int, Int, Int) => Int) {
+    def this(stage: String, w: Int, h: Int, one: (Int, Int) => Int) = this(stage, w, h, (_: Int, x: Int, y: Int) => one(x, y))
     val board = new Scoreboard(stage)
     def check(index: Long, b: OutBeat): Unit = {
       val pixel = index % (w.toLong * h)
       val (x, y) = ((pixel % w).toInt, (pixel / w).toInt)
       val frame = index / (w.toLong * h)
       def at = s"frame $frame (x=$x, y=$y)"
-      board.check(s"$at value", expected(x, y), b.value)
+      board.check(s"$at value", expected(frame.toInt, x, y), b.value)
       board.check(s"$at sof", if (x == 0 && y == 0) 1 else 0, if (b.sof) 1 else 0)
       board.check(s"$at eol", if (x == w - 1) 1 else 0, if (b.eol) 1 else 0)
       board.check(s"$at eof", if (x == w - 1 && y == h - 1) 1 else 0, if (b.eof) 1 else 0)
@@ -125,5 +135,50 @@ object PostProcessSpec {
         assert(board.board.ok, board.board.report)
       }
     }
+  }
+
+  def runPost(config: String): Unit = {
+    val p = ElasParams.byName(config)
+    val rnd = new Random(seed ^ config.hashCode ^ 0x9057)
+    val tmp = tmpDir(s"post-$config")
+    val all = cases(rnd)
+    val gold = all.zipWithIndex.map { case (c, i) => golden(config, c, tmp.resolve(f"golden$i%02d")) }
+    val bound = (w: Int, h: Int, frames: Int) => 20L * w * h * frames + 200000
+    simulate(new PostProcess(p), tmp.resolve("verilator")) { dut =>
+      reset(dut)
+      for (g <- gold) {
+        val exp = (x: Int, y: Int) => g.disp(y.toLong * g.w + x)
+        val board = new MapScoreboard(s"post ${g.c.label}", g.w, g.h, exp)
+        val traffic = Traffic(rnd.nextDouble() * 0.5, rnd.nextDouble() * 0.5)
+        streamMaps(dut.clock, dut.io.in, dut.io.frameWidth, dut.io.frameHeight, dut.io.out, Seq(g.lr), g.w, g.h,
+          traffic, rnd, board.check, bound(g.w, g.h, 1), g.c.label)
+        println(f"  ${p.name}: ${board.board.report} (input gaps ${traffic.inputGap}%.2f, output stalls ${traffic.outputStall}%.2f)")
+        assert(board.board.ok, board.board.report)
+      }
+      // throughput: a full-size frame with no stalls
+      val g = gold.find(g => g.w == p.maxWidth && g.h == p.maxHeight).get
+      val tput = new MapScoreboard("post throughput", g.w, g.h, (x, y) => g.disp(y.toLong * g.w + x))
+      val cycles = streamMaps(dut.clock, dut.io.in, dut.io.frameWidth, dut.io.frameHeight, dut.io.out, Seq(g.lr), g.w, g.h,
+        noStall, rnd, tput.check, bound(g.w, g.h, 1), "throughput")
+      assert(tput.board.ok, tput.board.report)
+      val (limit, formula) = throughputBound(p, g.w, g.h)
+      println(s"  ${p.name}: throughput ${g.w}x${g.h}: $cycles cycles, bound $limit ($formula)")
+      assert(cycles <= limit, s"throughput: $cycles cycles > bound $limit ($formula)")
+      // back to back: different frames of one size, with gaps and stalls
+      val same = gold.filter(x => x.w == g.w && x.h == g.h).take(3)
+      val b2b = new MapScoreboard(s"post back to back x${same.size}", g.w, g.h,
+        (f: Int, x: Int, y: Int) => same(f).disp(y.toLong * g.w + x))
+      streamMaps(dut.clock, dut.io.in, dut.io.frameWidth, dut.io.frameHeight, dut.io.out, same.map(_.lr), g.w, g.h,
+        Traffic(0.1, 0.1), rnd, b2b.check, bound(g.w, g.h, same.size), "back to back")
+      println(s"  ${p.name}: ${b2b.board.report}")
+      assert(b2b.board.ok, b2b.board.report)
+    }
+  }
+
+  /** INTERFACES.md §4: N pixels with no stalls complete within N + latencyRows * W + c cycles. */
+  def throughputBound(p: ElasParams, w: Int, h: Int): (Long, String) = {
+    val c = 4 * p.speckleWindowRows + 64
+    val rows = PostProcess.latencyRows(p)
+    (w.toLong * h + rows.toLong * w + c, s"N + $rows rows x W + c, c = 4 L + 64 = $c")
   }
 }
