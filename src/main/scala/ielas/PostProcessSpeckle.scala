@@ -29,10 +29,10 @@ import chisel3.util._
   *
   * Buffers (W = maxWidth, ids idW = log2(W) bits, size sW = log2(speckleSize + 1) bits, L = speckleWindowRows):
   *   delay line   (L + 4) rows x W x (dispBits + 1 + idW)
-  *   F maps       (L + 2) rows x W x (1 + max(idW, sW))
+  *   F maps       (L + 2) rows x W x (1 + max(idW, sW)), one memory per row, 2 read ports
   *   P, K, R      2 rows x W x idW each;  S  3 rows x W x sW;  R valid flags 2 x W bits (registers)
   * Latency: row v leaves once row v + L + 1 is being labelled, i.e. about (L + 1) rows plus L + 3 clocks.
-  * The memories are combinational-read (LUT RAM); F has one read port per chain stage.
+  * The memories are combinational-read (LUT RAM).
   */
 class PostProcessSpeckle(p: ElasParams) extends Module {
   private val L = p.speckleWindowRows
@@ -70,7 +70,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // ---- memories ----
   val delay = Mem(ND * W, UInt((vW + idW).W))
-  val fMap = Mem(NF * W, UInt((1 + fW).W)) // {closed, size or node}
+  // F maps, one memory per row slot, {closed, size or node}. Chain stage i reads slot (seq + i) mod NF; stages of
+  // one row read consecutive slots and only adjacent stages (across a row boundary) can meet on one slot, so two
+  // read ports per slot suffice: even stages on port 0, odd stages on port 1.
+  val fMaps = Seq.fill(NF)(Mem(W, UInt((1 + fW).W)))
   val pMem = Mem(2 * W, UInt(idW.W))
   val kMem = Mem(2 * W, UInt(idW.W))
   val rMem = Mem(2 * W, UInt(idW.W))
@@ -227,7 +230,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val cEntry = Mux(cOpen, Cat(0.U(1.W), rMem(addr(cRbuf, cClass)).pad(fW)),
     Cat(1.U(1.W), readS(cSbuf, cClass).pad(fW)))
   when(cActive) {
-    when(cxEff < cPrevN) { fMap.write(addr(cFslot, cxEff(idW - 1, 0)), cEntry) }
+    when(cxEff < cPrevN) {
+      for ((m, b) <- fMaps.zipWithIndex) when(cFslot === b.U) { m.write(cxEff(idW - 1, 0), cEntry) }
+    }
     when(cxEff + 1.U >= cPrevN) { cBusy := false.B; cNext := cNext + 1.U; cFirst := false.B }
       .otherwise { cBusy := true.B; cx := cxEff + 1.U }
   }
@@ -276,11 +281,21 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     when(dVirt || dCol === dWd - 1.U) { dCol := 0.U; dNext := dNext + 1.U }.otherwise { dCol := dCol + 1.U }
   }
   // stage i (1..L) applies F_{seq + i} when i <= n
+  private val targets = (1 to L).map(i => slotOf(stages(i - 1).bits.seq + i.U, NF))
+  private val ptrs = (1 to L).map(i => stages(i - 1).bits.ptr(idW - 1, 0))
+  private def applies(i: Int, b: Beat): Bool = b.value >= 0.S && !b.closed && i.U <= b.n
+  private val needs = (1 to L).map(i => stages(i - 1).valid && applies(i, stages(i - 1).bits))
+  private val portData = fMaps.zipWithIndex.map { case (m, b) =>
+    (0 until 2).map { q =>
+      val users = (1 to L).filter(_ % 2 == q)
+      if (users.isEmpty) 0.U else m(PriorityMux(users.map(i => needs(i - 1) && targets(i - 1) === b.U) :+ true.B, users.map(i => ptrs(i - 1)) :+ 0.U))
+    }
+  }
   private def lookup(i: Int, b: Beat): Beat = {
     val r = Wire(new Beat)
     r := b
-    val apply = b.value >= 0.S && !b.closed && i.U <= b.n
-    val e = fMap(addr(slotOf(b.seq + i.U, NF), b.ptr(idW - 1, 0)))
+    val apply = applies(i, b)
+    val e = Mux1H(fMaps.indices.map(k => targets(i - 1) === k.U), portData.map(_(i % 2)))
     when(apply) { r.closed := e(fW); r.ptr := e(fW - 1, 0) }
     r
   }
