@@ -70,7 +70,7 @@ object PostProcess {
     PostProcessSpeckle.memorySummary(p) ++ Seq(
       MemoryUse("PostRows", "rows", 2 * w, p.dispBits + 1, "2 row slots"),
       MemoryUse("PostRows", "runs", 2 * w, p.colBits + p.dispBits + 1, "run table (end column, right value), 2 rows"),
-      MemoryUse("PostCols", "rows", (g + 2) * w, 1 + p.rowBits + 1 + 32, "(G + 2) row slots: value + fill marker"),
+      MemoryUse("PostCols", "rows", (g + 2) * w, 1 + p.rowBits + 1 + 16, "(G + 2) row slots: value or fill, marker, end row"),
       MemoryUse("PostCols", "columns", 2 * w, 1 + p.rowBits + 1 + 16, "last valid above / running fill per column")) ++
       (if (p.filterAdaptiveMean) Seq(
         MemoryUse("PostMean", "rowsH", 2 * w, 16, "2 row slots"),

@@ -184,7 +184,7 @@ class PostRowGaps(p: ElasParams) extends Module {
   * addCorners, the top run of <= G rows, or at the last row the bottom run of <= G rows), a marker (fill value,
   * end row) is written into the run's first pixel, still in the window; the output side carries the fill down the
   * column in a per-column register memory.
-  * Buffers: (G + 2) slots x maxWidth x (17 + rowBits + 16); 2 x maxWidth column memories.
+  * Buffers: (G + 2) slots x maxWidth x (18 + rowBits); 2 x maxWidth column memories.
   */
 class PostColumnGaps(p: ElasParams) extends Module {
   val io = IO(new Bundle {
@@ -193,9 +193,9 @@ class PostColumnGaps(p: ElasParams) extends Module {
   })
   private val G = math.min(p.ipolGapWidth, p.ipolColumnWindow)
   private val rW = p.rowBits + 1
-  // word: {marker, end row, fill, value}
-  private val wordBits = 1 + rW + 16 + 16
-  private def word(marker: Bool, end: UInt, fill: SInt, value: SInt): UInt = Cat(marker, end.pad(rW), fill.asUInt, value.asUInt)
+  // word: {marker, end row, value}; a marked pixel is invalid, so its value field holds the fill
+  private val wordBits = 1 + rW + 16
+  private def word(marker: Bool, end: UInt, value: SInt): UInt = Cat(marker, end.pad(rW), value.asUInt)
   val ring = new RowRing(p, wordBits, 0, G, io.in, 0.U)
   // per column, input side: the last valid pixel above (row, value) in this frame
   val lastMem = Mem(p.maxWidth, UInt((1 + p.rowBits + 16).W))
@@ -222,11 +222,11 @@ class PostColumnGaps(p: ElasParams) extends Module {
     if (p.addCorners) when(r - lRow <= G.U) { mark := true.B; markRow := lRow + 1.U; markEnd := r +& 1.U; markFill := lVal }
   }
   val markHere = mark && markRow === r
-  ring.writeWord := word(markHere, markEnd, markFill, x)
+  ring.writeWord := word(markHere, markEnd, Mux(markHere, markFill, x))
   ring.extraWrite := io.in.fire && mark && !markHere
   ring.extraSlot := ring.slotOf(ring.inSeq - (r - markRow))
   ring.extraCol := u
-  ring.extraWord := word(true.B, markEnd, markFill, -1.S(16.W))
+  ring.extraWord := word(true.B, markEnd, markFill)
   when(io.in.fire) {
     lastMem.write(u, Mux(x >= 0.S, Cat(true.B, r, x.asUInt), Cat(lAny, lRow, lVal.asUInt)))
   }
@@ -237,8 +237,8 @@ class PostColumnGaps(p: ElasParams) extends Module {
   val ou = ring.outCol
   val w = ring.centreAt(ou)
   val wValue = w(15, 0).asSInt
-  val wFill = w(31, 16).asSInt
-  val wEnd = w(31 + rW, 32)
+  val wFill = wValue
+  val wEnd = w(15 + rW, 16)
   val wMark = w(wordBits - 1)
   val a = activeMem(ou)
   val aOn = ring.v =/= 0.U && a(rW + 16) && ring.v < a(rW + 15, 16)

@@ -78,7 +78,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val kMem = Mem(2 * W, UInt(idW.W))
   val rMem = Mem(2 * W, UInt(idW.W))
   val sMem = Mem(3 * W, UInt(sW.W))
-  val rValid = RegInit(VecInit(Seq.fill(2)(VecInit(Seq.fill(W)(false.B)))))
+  val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
+  private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, rValid(1), rValid(0))(idx)
   // The last top node of a finished row and its size (not written back to sMem), per S buffer.
   val finTop = Reg(Vec(3, UInt(idW.W)))
   val finSize = Reg(Vec(3, UInt(sW.W)))
@@ -151,7 +152,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val pushTop = Mux(newRun, nodeNow, top)
   val thisRun = Mux(newRun, nodeNow, runId)
   val baseSize = Mux(newRun, 1.U(sW.W), satAdd(topSize, Mux(valid, 1.U, 0.U)))
-  val rv = !rowStartNow && rValid(aP)(cls)
+  val rv = !rowStartNow && rvRead(aP, cls)
   val rn = rMem(addr(aP, cls))
   val touchNew = connectU && !rv
   val touchOld = connectU && rv && rn =/= pushTop
@@ -163,7 +164,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   when(take) {
     when(rowStartNow) {
       aBusy := true.B
-      rValid(aP) := VecInit(Seq.fill(W)(false.B))
       metaVirtual(aSlotD) := false.B; metaRow(aSlotD) := aRow; metaW(aSlotD) := frameW; metaH(aSlotD) := frameH
       finAny(aS) := false.B
     }
@@ -172,10 +172,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
       runId := nodeNow
       when(topAnyBase) { sMem.write(addr(aS, top), topSize) } // the old top stops being the top
     }.otherwise { cnt := cntBase }
-    when(touchNew) {
-      rValid(aP)(cls) := true.B
-      rMem.write(addr(aP, cls), pushTop)
+    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U) {
+      r := Mux(rowStartNow, 0.U, r) | Mux(touchNew, UIntToOH(cls, W), 0.U)
     }
+    when(touchNew) { rMem.write(addr(aP, cls), pushTop) }
     when(newRun || touchOld) { pMem.write(addr(aP, pushTop), Mux(touchOld, rn, pushTop)) }
     top := newTop
     topSize := newSize
@@ -197,7 +197,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row).
   when(needVirtual && canStartRow) {
     needVirtual := false.B
-    rValid(aP) := VecInit(Seq.fill(W)(false.B))
+    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U) { r := 0.U }
     metaVirtual(aSlotD) := true.B; metaRow(aSlotD) := frameH; metaW(aSlotD) := frameW; metaH(aSlotD) := frameH
     metaN(aSlotD) := 0.U
     finAny(aS) := false.B
@@ -226,7 +226,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val cActive = cBusy || cCanStart
   val cxEff = Mux(cBusy, cx, 0.U)
   val cClass = kMem(addr(cKbuf, cxEff(idW - 1, 0)))
-  val cOpen = rValid(cRbuf)(cClass)
+  val cOpen = rvRead(cRbuf, cClass)
   val cEntry = Mux(cOpen, Cat(0.U(1.W), rMem(addr(cRbuf, cClass)).pad(fW)),
     Cat(1.U(1.W), readS(cSbuf, cClass).pad(fW)))
   when(cActive) {

@@ -30,6 +30,16 @@ class PostProcessSpec extends AnyFlatSpec {
   it should "match the golden disparity at config small-middlebury (corners, G = 32, median)" in {
     runPost("small-middlebury")
   }
+  it should "elaborate to SystemVerilog at kitti and kitti-middlebury (memory summary)" in {
+    for (name <- Seq("kitti", "kitti-middlebury")) {
+      val p = ElasParams.byName(name)
+      VerilogEmitter.emit(new PostProcess(p), StreamTester.tmpDir(s"post-verilog-$name"))
+      val mem = PostProcess.memorySummary(p)
+      println(s"  $name: PostProcess latency ${PostProcess.latencyRows(p)} rows; memories:")
+      mem.foreach(m => println("    " + m))
+      println(f"    total ${mem.map(_.bits).sum}%d bits")
+    }
+  }
 }
 
 object PostProcessSpec {
