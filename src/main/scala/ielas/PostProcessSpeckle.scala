@@ -30,7 +30,7 @@ import chisel3.util._
   * Buffers (W = maxWidth, ids idW = log2(W) bits, size sW = log2(speckleSize + 1) bits, L = speckleWindowRows):
   *   delay line   (L + 4) rows x W x (dispBits + 1 + idW)
   *   F maps       (L + 2) rows x W x (1 + max(idW, sW)), one memory per row, 2 read ports
-  *   P, K, R      2 rows x W x idW each;  S  3 rows x W x sW;  R valid flags 2 x W bits (registers)
+  *   P, R         2 rows x W x idW each;  K, S  3 rows x W x idW / sW;  R valid flags 2 x W bits (registers)
   * Latency: row v leaves once row v + L + 1 is being labelled, i.e. about (L + 1) rows plus L + 3 clocks.
   * The memories are combinational-read (LUT RAM).
   */
@@ -75,7 +75,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // read ports per slot suffice: even stages on port 0, odd stages on port 1.
   val fMaps = Seq.fill(NF)(Mem(W, UInt((1 + fW).W)))
   val pMem = Mem(2 * W, UInt(idW.W))
-  val kMem = Mem(2 * W, UInt(idW.W))
+  val kMem = Mem(3 * W, UInt(idW.W)) // 3 rows: B never waits for C to finish reading K_{k-2}
   val rMem = Mem(2 * W, UInt(idW.W))
   val sMem = Mem(3 * W, UInt(sW.W))
   val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
@@ -114,7 +114,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // B (declared here: A reads K_{k-1} while B writes it)
   val bx = Reg(UInt((idW + 1).W))
-  val bCanStart = !bBusy && seqGe(aNext, bNext + 1.U) && seqGe(cDoneCnt, bNext)
+  val bCanStart = !bBusy && seqGe(aNext, bNext + 1.U) && seqGe(cDoneCnt + 1.U, bNext)
   val bActive = bBusy || bCanStart
   val bxEff = Mux(bBusy, bx, 0.U)
   val bComputed = Wire(UInt(idW.W))
@@ -134,7 +134,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val connectU = valid && hasUp && upVal >= 0.S && similar(inV, upVal)
   // K_{k-1}[upId], the flat class: B is flattening row k-1 right now or has finished it (bypass at its position)
   val bOnPrev = bActive && bNext === aSeq - 1.U
-  val kBuf = slotOf(aSeq - 1.U, 2)
+  val kBuf = slotOf(aSeq - 1.U, 3)
   val cls = Mux(bOnPrev && upId === bxEff, bComputed, kMem(addr(kBuf, upId)))
   val kReady = !bOnPrev || upId <= bxEff
   io.in.ready := inFrame && (aBusy || canStartRow) && (!connectU || kReady)
@@ -206,11 +206,12 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // ===== B: flatten P_k into K_k (one node per clock, from the cycle it may start) =====
   val bSlot = slotOf(bNext, 2)
+  val bKslot = slotOf(bNext, 3)
   val bN = metaN(slotOf(bNext, ND))
   val bPx = pMem(addr(bSlot, bxEff(idW - 1, 0)))
-  bComputed := Mux(bPx === bxEff(idW - 1, 0), bPx, kMem(addr(bSlot, bPx)))
+  bComputed := Mux(bPx === bxEff(idW - 1, 0), bPx, kMem(addr(bKslot, bPx)))
   when(bActive) {
-    when(bxEff < bN) { kMem.write(addr(bSlot, bxEff(idW - 1, 0)), bComputed) }
+    when(bxEff < bN) { kMem.write(addr(bKslot, bxEff(idW - 1, 0)), bComputed) }
     when(bxEff + 1.U >= bN) { bBusy := false.B; bNext := bNext + 1.U }.otherwise { bBusy := true.B; bx := bxEff + 1.U }
   }
 
@@ -218,7 +219,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val cx = Reg(UInt((idW + 1).W))
   val cFirst = RegInit(true.B) // sequence 0 has no row before it
   val cPrevN = Mux(cFirst, 0.U, metaN(slotOf(cNext - 1.U, ND)))
-  val cKbuf = slotOf(cNext - 1.U, 2)
+  val cKbuf = slotOf(cNext - 1.U, 3)
   val cRbuf = slotOf(cNext, 2)
   val cSbuf = slotOf(cNext - 1.U, 3)
   val cFslot = slotOf(cNext, NF)
@@ -333,7 +334,7 @@ object PostProcessSpeckle {
     Seq(
       MemoryUse("Speckle", "delay", delayRows(p) * w, p.dispBits + 1 + idW, s"(L + 4) rows x maxWidth, value + node id"),
       MemoryUse("Speckle", "fmaps", mapRows(p) * w, 1 + math.max(idW, sW), "(L + 2) rows x maxWidth forward maps"),
-      MemoryUse("Speckle", "P/K/R", 3 * 2 * w, idW, "merge parents, flat classes, class -> node; 2 rows each"),
+      MemoryUse("Speckle", "P/K/R", (2 + 3 + 2) * w, idW, "merge parents (2 rows), flat classes (3), class -> node (2)"),
       MemoryUse("Speckle", "S", 3 * w, sW, "saturating segment sizes, 3 rows"),
       MemoryUse("Speckle", "Rvalid", 2, w, "touched-class flags (registers)"))
   }
