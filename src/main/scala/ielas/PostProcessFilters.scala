@@ -74,9 +74,13 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   val width: UInt = metaW(outSlot)
   val isLast: Bool = metaLast(outSlot)
   /** Window rows v + k, k = -above .. below, at column c; with whether that row exists in the frame. */
-  def windowAt(c: UInt): Seq[(UInt, Bool)] = (-above to below).map { k =>
+  def windowAt(c: UInt): Seq[(UInt, Bool)] = {
+    val column = VecInit(mems.map(_(c))) // one read per slot memory; the taps select among them
+    (-above to below).map(k => windowTap(column, k))
+  }
+  private def windowTap(column: Vec[UInt], k: Int): (UInt, Bool) = {
     val slot = slotOf(outSeq + k.S(seqW.W).asUInt)
-    val word = VecInit(mems.map(_(c)))(slot)
+    val word = column(slot)
     val exists =
       if (k < 0) v >= (-k).U
       else if (k == 0) true.B
@@ -278,7 +282,11 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
   }
   val num = taps.zip(weights).map { case (xi, wi) => Mux(wi === 0.U, 0.U, xi.asUInt(15, 0) * wi) }.reduce(_ +& _)
   val den = weights.reduce(_ +& _)
-  val mean = ((num << 1) + den) / (den << 1)
+  require(16 * p.dispMax * 32 < (1 << 20), s"dispMax = ${p.dispMax}: the adaptive mean's dividend must stay below 2^21")
+  // roundDiv(num, den) = floor((2 num + den) / (2 den)) without a divider: 2 den is one of 8, 12, .., 64 and the
+  // dividend is below 2^21, so n / d = (n * ceil(2^27 / d)) >> 27 exactly (the error n (m d - 2^27) stays below 2^27).
+  private val recip = VecInit((0 to 32).map(d => if (d >= 4) ((BigInt(1) << 27) + 2 * d - 1) / (2 * d) else BigInt(0)).map(_.U(25.W)))
+  val mean = ((((num << 1) +& den)(20, 0) * recip(den)) >> 27)(15, 0)
   val value = Mux(inRange && c >= 0.S, mean(15, 0).asSInt, c)
   val go = ring.rowReady && o.canLoad
   when(go) {
