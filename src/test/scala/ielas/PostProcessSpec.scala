@@ -8,9 +8,14 @@ import java.nio.file.{Files, Path}
 import scala.util.Random
 
 /** Stage `post` alone: the golden lrcheck_L.npy streamed in, every output pixel and the framing compared with the
-  * golden disparity.npy. The speckle step is also checked by itself against the golden model run with the later
-  * post steps switched off in its configuration JSON (ipolGapWidth 0, no corners, no mean, no median), so its
-  * disparity.npy is exactly the speckle result * 16.
+  * golden disparity.npy, at `small` (robotics) and `small-middlebury`, one Verilator build each. Inputs: real crops
+  * (KITTI 2012, KITTI 2015, Middlebury tsukuba and cones) and seeded image pairs through the golden pipeline, plus
+  * seeded synthetic lrcheck maps through the golden `ielas-post` tool (segments taller than the speckle window,
+  * merge-heavy combs and nested U shapes, a node per pixel, gaps at the frame edges and around G); random input gaps
+  * and output back-pressure; two frames back to back; the throughput bound with no stalls. What the cases cover
+  * (window-kept speckle pixels, border fills) is counted from the golden data and must be non-zero.
+  * With -Dielas.postSpeckle=1 the speckle step is also checked alone, against the golden model with the later post
+  * steps switched off in its configuration JSON (ipolGapWidth 0, no corners, no mean, no median).
   */
 class PostProcessSpec extends AnyFlatSpec {
   import PostProcessSpec._
