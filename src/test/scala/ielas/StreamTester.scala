@@ -101,6 +101,68 @@ object StreamTester {
     cycles
   }
 
+  /** One input port of [[runFeeds]]: its beats, how to poke one, and its own seeded gap probability and generator,
+    * so each input of a multi-input stage sees an independent random gap pattern.
+    */
+  final class Feed[D <: Data, I](val name: String, port: DecoupledIO[D], inputs: Iterator[I], pokeBeat: (D, I) => Unit,
+      val inputGap: Double, rnd: Random) {
+    require(inputGap >= 0 && inputGap < 1, s"feed $name: bad gap probability $inputGap")
+    private var pending: Option[I] = None
+    private var lastValid: Option[Boolean] = None
+    private var offer = false
+    /** Beats transferred so far. */
+    var sent = 0L
+    def busy: Boolean = pending.nonEmpty || inputs.hasNext
+    /** Offers the next beat unless a gap is drawn; returns whether a beat is offered. */
+    private[StreamTester] def drive(): Boolean = {
+      if (pending.isEmpty && inputs.hasNext) pending = Some(inputs.next())
+      offer = pending.nonEmpty && rnd.nextDouble() >= inputGap
+      if (offer) pokeBeat(port.bits, pending.get)
+      if (!lastValid.contains(offer)) { port.valid.poke(offer.B); lastValid = Some(offer) }
+      offer
+    }
+    /** After every input is driven: did the offered beat transfer? */
+    private[StreamTester] def sample(): Unit =
+      if (offer && port.ready.peek().litToBoolean) { pending = None; sent += 1 }
+    private[StreamTester] def stop(): Unit = { port.valid.poke(false.B); lastValid = Some(false) }
+  }
+
+  /** The multi-input form of [[run]]: every feed offers its beats with its own gaps (all inputs are driven before
+    * any ready is sampled), the output is drained under seeded back-pressure `outputStall`, and the first
+    * `expectedOutputs` transfers go to `sink`. Returns the cycles from the first offered input (of any feed) to the
+    * last expected output, inclusive; throws when `maxCycles` pass first, naming how far each feed got.
+    */
+  def runFeeds[E <: Data, O](clock: Clock, feeds: Seq[Feed[_ <: Data, _]], out: DecoupledIO[E], expectedOutputs: Long,
+      peekBeat: E => O, sink: (Long, O) => Unit, outputStall: Double, rnd: Random, maxCycles: Long,
+      what: String = "stream"): Long = {
+    require(outputStall >= 0 && outputStall < 1, s"$what: bad stall probability $outputStall")
+    var cycles = 0L
+    var received = 0L
+    var started = false
+    var lastReady: Option[Boolean] = None
+    while (received < expectedOutputs || feeds.exists(_.busy)) {
+      if (cycles >= maxCycles)
+        throw new AssertionError(s"$what: timeout after $cycles cycles with $received of $expectedOutputs outputs; " +
+          feeds.map(f => s"${f.name} sent ${f.sent}${if (f.busy) " (more pending)" else ""}").mkString(", ") +
+          s" (seed $seed)")
+      val offered = feeds.map(_.drive()).exists(identity)
+      val ready = rnd.nextDouble() >= outputStall
+      if (!lastReady.contains(ready)) { out.ready.poke(ready.B); lastReady = Some(ready) }
+      feeds.foreach(_.sample())
+      if (ready && out.valid.peek().litToBoolean) {
+        if (received < expectedOutputs) sink(received, peekBeat(out.bits))
+        else throw new AssertionError(s"$what: more than the $expectedOutputs expected outputs (seed $seed)")
+        received += 1
+      }
+      clock.step()
+      started ||= offered
+      if (started) cycles += 1
+    }
+    feeds.foreach(_.stop())
+    out.ready.poke(false.B)
+    cycles
+  }
+
   /** One output beat of the descriptor stream: both descriptors (byte k at bits 8k+7..8k) and the framing. */
   case class DescriptorBeat(left: BigInt, right: BigInt, sof: Boolean, eol: Boolean, eof: Boolean)
 

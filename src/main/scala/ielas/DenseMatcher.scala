@@ -1,0 +1,560 @@
+package ielas
+
+import chisel3._
+import chisel3.util._
+
+/** Stage `dense`: the per-pixel MAP search of both views (docs/ALGORITHM.md "Rasteriser" and "dense"), streaming at
+  * one pixel per clock.
+  *
+  * Inputs: the descriptor stream (both views per pixel, raster order), the `planes` stream (one [[PlaneCell]] per
+  * lattice cell, cell rows in order) and the `grid` stream (one [[GridCellPair]] per grid cell, grid rows in order).
+  * The three streams are independent: plane cells and grid cells are taken into a free row bank whenever one is
+  * free, whatever their timing relative to the descriptors; the pixel pipeline waits (the whole pipeline stalls)
+  * only when the cell row or grid row a pixel needs has not arrived yet. Output: dense_L and dense_R per pixel in
+  * raster order (-1 invalid) with sof / eol / eof. frameWidth / frameHeight are sampled at the descriptor sof.
+  *
+  * '''Descriptor window (why registers, not row buffers).''' Every pixel needs the SAD of its reference descriptor
+  * against the target descriptors of up to 2R+1 plane candidates and storedDisparities grid candidates, at target
+  * columns anywhere in u -+ 0..dispMax. Instead of one random 128-bit read port per candidate lane (a
+  * (dispMax+1):1 mux of 128 bits per lane and view, or one BRAM replica per lane), the stage computes the SAD of
+  * all dispMax+1 disparities of both views every clock from a register window over the descriptor stream and then
+  * selects each candidate's cost with a (dispMax+1):1 mux of only 12 bits. Both views are evaluated at the same
+  * pixel P = n - dispMax, n being the newest stream position, so that the right view's targets (columns u + d)
+  * have arrived:
+  *   left view:  reference descL(P) = winL(dispMax), targets descR(P - d) = winR(dispMax + d)
+  *   right view: reference descR(P) = winR(dispMax), targets descL(P + d) = winL(dispMax - d)
+  *   window registers = (dispMax + 1 + 2 dispMax + 1) x 128 bits   (small: 95 x 128; kitti: 767 x 128)
+  *   SAD16 units      = 2 (dispMax + 1) per clock (all disparities of both views, so every candidate set is
+  *                      served at one pixel per clock; denseLanes / denseLanesUsed are not used by this structure)
+  * Where the area goes at kitti (dispMax 255): 512 SAD16 units, 50 (2R+1 + storedDisparities per view) 12-bit
+  * 256:1 cost muxes and 767 x 128 window flip-flops, against 50 128-bit 256:1 descriptor muxes (about 5x the LUTs
+  * of the cost muxes plus SADs) for one read per candidate lane. A further halving is possible: the right view's
+  * cost at (P, d) equals the left view's at (P + d, d), so a per-d delay line of dispMax - d steps (12 bits,
+  * SRL-friendly) could replace the right view's dispMax + 1 SAD units.
+  * Entries that fall into another row (or the flush after a frame) are never selected: a candidate is skipped
+  * unless m <= t <= W-1-m, which keeps t in P's row. After the last beat of a frame the stage inserts dispMax flush
+  * steps (input not ready) to bring the frame's last dispMax pixels through.
+  *
+  * '''Rasteriser.''' For image row v and lattice cell cc the three cut points of the left edge, the diagonal and
+  * the right edge with row v, scaled by h (e, g, f of the algorithm), are exact integers. A pixel u can only be
+  * covered by cells cu - 1 .. cu + ceil(dispMax/step) (cu = its own cell; right-view vertices move left by at most
+  * dispMax), so a register window of K = 2 + ceil(dispMax/step) cells, shifted by one cell every `step` pixels,
+  * holds all candidates; the owner is the highest-indexed covering triangle, and an uncovered pixel takes the
+  * carried owner of the nearest covered pixel to its left (a row whose pixel 0 is uncovered has no covered pixel at
+  * all and takes the cell row's last triangle). A primer computes the first K-1 cells of the next row into shadow
+  * registers while the current row runs (one cell per clock), so row starts cost no cycles.
+  *   raster registers = 2 (window + shadow) x K x (1 + 6 spanBits)   (K = 9 at small, 53 at kitti)
+  *
+  * '''Row banks''' (memories, combinational read ports; written by the loaders, tagged with frame parity and row):
+  *   corner banks = 2 x (latticeColsMax - 1) x 4 dispBits          (one cell row in use, the next loading)
+  *   plane banks  = 2 views x 2 x (latticeColsMax - 1) x 2 (3 x 32 + colBits + rowBits + 3)
+  *   grid banks  = 2 x gridColsMax x 2 storedDisparities x (dispBits + 1) (one grid row in use, the next loading)
+  * The second grid row is there so that a grid row change costs no cycle (the next row loads while the current
+  * one is read); with one bank the pixel stream would wait gridColsMax cycles every gridSize rows.
+  * Nothing grows with the image height.
+  *
+  * '''Framing.''' The descriptor stream is trusted to be well formed (the top checks the pixel framing): a frame is
+  * frameWidth x frameHeight beats from sof to eof, and the planes and grid streams carry the matching cell and grid
+  * rows. Frames may follow each other back to back in all three streams; row banks are tagged with a frame parity
+  * so the next frame's rows can load while the current frame ends.
+  *
+  * Pipeline (lockstep, stalls as a whole): A (window shift, SADs, owner, plane and grid reads) -> B (plane value
+  * d_p, range lo..hi) -> C (candidate costs with the prior, first-minimum selection) -> output register.
+  */
+class DenseMatcher(p: ElasParams) extends Module {
+  private val D = p.dispMax
+  private val S = p.storedDisparities
+  private val R = p.planeRadius
+  private val m = p.descriptorMargin
+  private val step = p.candidateStep
+  private val G = p.gridSize
+  private val K = DenseMatcher.rasterCells(p)
+  private val cellsMax = p.latticeColsMax - 1
+  private val descBits = 8 * p.descriptorBytes
+  private val colW = p.colBits
+  private val rowW = p.rowBits
+  private val cellW = log2Ceil(cellsMax + K + 1) + 1
+  private val cellRowW = log2Ceil(p.latticeRowsMax + 1)
+  private val gridColW = log2Ceil(p.gridColsMax + 1)
+  private val gridRowW = log2Ceil(p.gridRowsMax + 1)
+  private val inW = log2Ceil(step + 1)
+  private val gInW = log2Ceil(G + 1)
+  private val spanW = DenseMatcher.spanBits(p)
+  private val dispW = p.dispBits + 1 // signed disparity, -1 invalid
+  private val offW = log2Ceil(3 * R + 1) + 2 // lo - d_p + i for i <= 2R, signed
+  private val costW = 14 //             SAD16 <= 4080 plus a prior >= -4096 fits 14 signed bits
+  require(p.priorTable.take(R + 1).forall(v => v >= -(1 << 12) && v < (1 << 12)),
+    s"priorTable entries 0..planeRadius must lie in -4096..4095 (got ${p.priorTable.take(R + 1)})")
+  // The golden model's dense stage accepts at most 127 grid slots and plane range candidates; beyond that the
+  // hardware could not be verified.
+  require(S < 128, s"storedDisparities = $S is out of range for the dense stage (legal: 1..${math.min(127, D + 1)})")
+  require(2 * R + 1 < 128, s"planeRadius = $R (from sigma x sradius) is out of range for the dense stage (legal: 2..63)")
+
+  val io = IO(new Bundle {
+    val desc = Flipped(Decoupled(new Framed(new DescriptorPair(p.descriptorBytes))))
+    val planes = Flipped(Decoupled(new Framed(new PlaneCell(p))))
+    val grid = Flipped(Decoupled(new Framed(new GridCellPair(p))))
+    val frameWidth = Input(UInt(colW.W))
+    val frameHeight = Input(UInt(rowW.W))
+    val out = Decoupled(new Framed(new DisparityPair(p)))
+  })
+
+  // ---------------------------------------------------------------- frame parameters (sampled at the desc sof)
+  val width = RegInit(p.maxWidth.U(colW.W))
+  val height = RegInit(p.maxHeight.U(rowW.W))
+  val lastCell = RegInit(0.U(cellW.W)) //    Lw - 2 = (W - 2) / step
+  val lastCellRow = RegInit(0.U(cellRowW.W)) // Lh - 2 = (H - 2) / step
+  val inFp = RegInit(false.B) // frame parity of the descriptor stream (toggles at each sof)
+
+  // ---------------------------------------------------------------- row banks and their loaders
+  class Tag extends Bundle {
+    val fp = Bool()
+    val row = UInt(math.max(cellRowW, gridRowW).W)
+  }
+  // Plane banks are split by reader: the corners feed the rasteriser (primer and window shift), each view's planes
+  // feed that view's plane read, so every memory has at most two combinational read ports.
+  val cornerBanks = Seq.fill(2)(Mem(cellsMax, Vec(4, UInt(p.dispBits.W))))
+  val planeBanksL = Seq.fill(2)(Mem(cellsMax, Vec(2, new PlaneCoeffs(p))))
+  val planeBanksR = Seq.fill(2)(Mem(cellsMax, Vec(2, new PlaneCoeffs(p))))
+  val planeFull = RegInit(VecInit(Seq.fill(2)(false.B)))
+  val planeTag = Reg(Vec(2, new Tag))
+  val gridBanks = Seq.fill(2)(Mem(p.gridColsMax, new GridCellPair(p)))
+  val gridFull = RegInit(VecInit(Seq.fill(2)(false.B)))
+  val gridTag = Reg(Vec(2, new Tag))
+
+  /** Fills the two banks alternately, one row per bank; a row's tag is (frame parity, row in frame). */
+  def loader[T <: Data](in: DecoupledIO[Framed[T]], full: Vec[Bool], tag: Vec[Tag], depth: Int)(
+      write: (Int, UInt, T) => Unit): Unit = {
+    val fill = RegInit(0.U(1.W))
+    val col = RegInit(0.U(log2Ceil(depth + 1).W))
+    val row = RegInit(0.U(tag(0).row.getWidth.W))
+    val fp = RegInit(false.B)
+    in.ready := !full(fill)
+    when(in.fire) {
+      val beatFp = Mux(in.bits.sof, !fp, fp)
+      val beatRow = Mux(in.bits.sof, 0.U, row)
+      val beatCol = Mux(in.bits.sof, 0.U, col)
+      for (i <- 0 until 2) when(fill === i.U) { write(i, beatCol(math.max(log2Ceil(depth), 1) - 1, 0), in.bits.data) }
+      fp := beatFp
+      col := beatCol + 1.U
+      row := beatRow
+      when(in.bits.eol) {
+        full(fill) := true.B
+        tag(fill).fp := beatFp
+        tag(fill).row := beatRow
+        fill := ~fill
+        col := 0.U
+        row := beatRow + 1.U
+      }
+    }
+  }
+  loader(io.planes, planeFull, planeTag, cellsMax) { (i, addr, cell) =>
+    cornerBanks(i).write(addr, cell.corners)
+    planeBanksL(i).write(addr, cell.left)
+    planeBanksR(i).write(addr, cell.right)
+  }
+  loader(io.grid, gridFull, gridTag, p.gridColsMax) { (i, addr, cell) => gridBanks(i).write(addr, cell) }
+
+  def bankOf(full: Vec[Bool], tag: Vec[Tag], fp: Bool, row: UInt): (Bool, UInt) = {
+    val hit = (0 until 2).map(i => full(i) && tag(i).fp === fp && tag(i).row === row)
+    (hit.reduce(_ || _), Mux(hit(1), 1.U, 0.U))
+  }
+  def readBank[T <: Data](banks: Seq[MemBase[T]], sel: UInt, addr: UInt, depth: Int): T = {
+    val a = addr(math.max(log2Ceil(depth), 1) - 1, 0)
+    Mux(sel === 1.U, banks(1).read(a), banks(0).read(a))
+  }
+
+  // ---------------------------------------------------------------- rasteriser cell spans
+  /** e*h, g*h, f*h of one cell for view 0 (left, s = 0) and 1 (right, s = corner disparities). */
+  class Span extends Bundle {
+    val valid = Bool()
+    val e = Vec(2, SInt(spanW.W))
+    val g = Vec(2, SInt(spanW.W))
+    val f = Vec(2, SInt(spanW.W))
+  }
+  def cellSpan(cc: UInt, exists: Bool, corners: Vec[UInt], up: UInt, down: UInt): Span = {
+    val s = Wire(new Span)
+    val x0 = (cc * step.U).pad(colW + 2)(colW + 1, 0)
+    val x1raw = x0 +& step.U
+    val x1 = Mux(x1raw > width - 1.U, width - 1.U, x1raw)
+    s.valid := exists
+    for (view <- 0 until 2) {
+      def sh(k: Int): SInt = if (view == 0) 0.S else corners(k).zext
+      val tl = x0.zext - sh(0)
+      val tr = x1.zext - sh(1)
+      val bl = x0.zext - sh(2)
+      val br = x1.zext - sh(3)
+      s.e(view) := tl * up.zext + bl * down.zext
+      s.g(view) := tr * up.zext + bl * down.zext
+      s.f(view) := tr * up.zext + br * down.zext
+    }
+    s
+  }
+  def noSpan: Span = { val s = Wire(new Span); s := 0.U.asTypeOf(new Span); s }
+
+  // ---------------------------------------------------------------- pixel positions
+  class Pos extends Bundle {
+    val u = UInt(colW.W)
+    val v = UInt(rowW.W)
+    val cu = UInt(cellW.W) //    cell column of u (capped at lastCell)
+    val uIn = UInt(inW.W) //     u - cu*step
+    val cr = UInt(cellRowW.W) // cell row of v (capped at lastCellRow)
+    val vIn = UInt(inW.W) //     v - cr*step
+    val gx = UInt(gridColW.W)
+    val uG = UInt(gInW.W)
+    val gy = UInt(gridRowW.W)
+    val vG = UInt(gInW.W)
+    val fp = Bool()
+  }
+  def rowEnd(q: Pos): Bool = q.u === width - 1.U
+  def frameEnd(q: Pos): Bool = rowEnd(q) && q.v === height - 1.U
+  def nextCellRow(q: Pos): Bool = q.vIn === (step - 1).U && q.cr < lastCellRow
+  def nextCellCol(q: Pos): Bool = q.uIn === (step - 1).U && q.cu < lastCell
+  def advance(q: Pos): Pos = {
+    val n = Wire(new Pos)
+    n := q
+    when(rowEnd(q)) {
+      n.u := 0.U; n.cu := 0.U; n.uIn := 0.U; n.gx := 0.U; n.uG := 0.U
+      n.v := q.v + 1.U
+      when(nextCellRow(q)) { n.cr := q.cr + 1.U; n.vIn := 0.U }.otherwise { n.vIn := q.vIn + 1.U }
+      when(q.vG === (G - 1).U) { n.gy := q.gy + 1.U; n.vG := 0.U }.otherwise { n.vG := q.vG + 1.U }
+    }.otherwise {
+      n.u := q.u + 1.U
+      when(nextCellCol(q)) { n.cu := q.cu + 1.U; n.uIn := 0.U }.otherwise { n.uIn := q.uIn + 1.U }
+      when(q.uG === (G - 1).U) { n.gx := q.gx + 1.U; n.uG := 0.U }.otherwise { n.uG := q.uG + 1.U }
+    }
+    n
+  }
+  /** Row geometry of cell row cr at image row offset vIn: (h, up = y1 - v, down = v - y0). */
+  def rowGeometry(cr: UInt, vIn: UInt): (UInt, UInt, UInt) = {
+    val y0 = (cr * step.U).pad(rowW + 2)(rowW + 1, 0)
+    val y1raw = y0 +& step.U
+    val y1 = Mux(y1raw > height - 1.U, height - 1.U, y1raw)
+    val h = (y1 - y0)(inW - 1, 0)
+    (h, (h - vIn)(inW - 1, 0), vIn)
+  }
+
+  // ---------------------------------------------------------------- pipeline control
+  val outValid = RegInit(false.B)
+  val outBits = Reg(new Framed(new DisparityPair(p)))
+  val outFree = !outValid || io.out.ready
+
+  val aValid = RegInit(false.B)
+  val a = Reg(new Pos)
+  val shadow = Reg(Vec(K, new Span))
+  val shadowFull = RegInit(false.B)
+  val (gridHit, gridSel) = bankOf(gridFull, gridTag, a.fp, a.gy)
+  val (planeHit, planeSel) = bankOf(planeFull, planeTag, a.fp, a.cr)
+  val aReady = a.u =/= 0.U || (shadowFull && gridHit)
+  val adv = outFree && (!aValid || aReady)
+
+  val flush = RegInit(0.U(log2Ceil(D + 1).W)) // flush steps still to insert after a frame's last beat
+  val flushing = flush =/= 0.U
+  io.desc.ready := adv && !flushing
+  val slot = adv && (flushing || io.desc.valid)
+  val slotSof = !flushing && io.desc.bits.sof
+  val slotL = Mux(flushing, 0.U, io.desc.bits.data.left)
+  val slotR = Mux(flushing, 0.U, io.desc.bits.data.right)
+
+  // descriptor windows: win(i) = stream position n - i
+  val winL = Reg(Vec(D + 1, UInt(descBits.W)))
+  val winR = Reg(Vec(2 * D + 1, UInt(descBits.W)))
+
+  // pixel generator: pixel P = n - dispMax enters stage A with stream position n
+  val gen = Reg(new Pos)
+  val genActive = RegInit(false.B)
+  val lag = RegInit(0.U(log2Ceil(D + 1).W))
+  val sofPending = RegInit(false.B) // a frame the primer has not started yet
+
+  when(io.desc.fire && io.desc.bits.eof) { flush := D.U }
+  when(slot) {
+    winL(0) := slotL
+    for (i <- 1 to D) winL(i) := winL(i - 1)
+    winR(0) := slotR
+    for (i <- 1 to 2 * D) winR(i) := winR(i - 1)
+    when(flushing) { flush := flush - 1.U }
+    aValid := false.B
+    when(slotSof) {
+      lag := 1.U
+      width := io.frameWidth
+      height := io.frameHeight
+      lastCell := DenseMatcher.divConst(io.frameWidth - 2.U, step, colW)
+      lastCellRow := DenseMatcher.divConst(io.frameHeight - 2.U, step, rowW)
+      inFp := !inFp
+      sofPending := true.B
+      genActive := true.B
+      gen := 0.U.asTypeOf(new Pos)
+      gen.fp := !inFp
+    }.elsewhen(lag =/= D.U) {
+      lag := lag + 1.U
+    }.elsewhen(genActive) {
+      aValid := true.B
+      a := gen
+      gen := advance(gen)
+      when(frameEnd(gen)) { genActive := false.B }
+    }
+  }.elsewhen(adv) {
+    aValid := false.B
+  }
+  val aFire = adv && aValid // stage A's pixel moves on this cycle
+
+  // ---------------------------------------------------------------- primer: the next row's first K-1 cells
+  val pRow = Reg(new Pos) // only v, cr, vIn, fp are used
+  val pJ = RegInit(0.U(cellW.W))
+  val pWaitFrame = RegInit(true.B)
+  val pActive = RegInit(false.B)
+  when(pWaitFrame && sofPending && !shadowFull) {
+    pWaitFrame := false.B
+    pActive := true.B
+    sofPending := false.B
+    pRow := 0.U.asTypeOf(new Pos)
+    pRow.fp := inFp
+    pJ := 0.U
+  }
+  val (pHit, pSel) = bankOf(planeFull, planeTag, pRow.fp, pRow.cr)
+  val pCorners = readBank(cornerBanks, pSel, pJ, cellsMax)
+  val (pH, pUp, pDown) = rowGeometry(pRow.cr, pRow.vIn)
+  val pSpan = cellSpan(pJ, pJ <= lastCell, pCorners, pUp, pDown)
+  when(pActive && !shadowFull && pHit) {
+    shadow(0) := noSpan
+    for (j <- 1 until K) when(pJ === (j - 1).U) { shadow(j) := pSpan }
+    pJ := pJ + 1.U
+    when(pJ === (K - 2).U) {
+      shadowFull := true.B
+      pJ := 0.U
+      when(pRow.v === height - 1.U) {
+        pActive := false.B
+        pWaitFrame := true.B
+      }.otherwise {
+        pRow.v := pRow.v + 1.U
+        when(pRow.vIn === (step - 1).U && pRow.cr < lastCellRow) { pRow.cr := pRow.cr + 1.U; pRow.vIn := 0.U }
+          .otherwise { pRow.vIn := pRow.vIn + 1.U }
+      }
+    }
+  }
+
+  // ---------------------------------------------------------------- stage A
+  val window = Reg(Vec(K, new Span))
+  val carry = Reg(Vec(2, UInt((cellW + 1).W))) // owner of the last covered pixel: cell * 2 + t
+  val (aH, aUp, aDown) = rowGeometry(a.cr, a.vIn)
+  val win = Mux(a.u === 0.U, shadow, window)
+  val uh = (a.u * aH).zext
+  val base = a.cu.zext - 1.S // cell of window entry 0
+
+  when(aFire && a.u === 0.U) { shadowFull := false.B }
+  // next window: shift by one cell when the next pixel enters the next cell
+  val shiftCell = a.cu + (K - 1).U
+  val shiftCorners = readBank(cornerBanks, planeSel, shiftCell, cellsMax)
+  val shiftSpan = cellSpan(shiftCell, shiftCell <= lastCell, shiftCorners, aUp, aDown)
+  when(aFire && !rowEnd(a)) {
+    when(nextCellCol(a)) {
+      for (j <- 0 until K - 1) window(j) := win(j + 1)
+      window(K - 1) := shiftSpan
+    }.otherwise { window := win }
+  }
+
+  def between(x: SInt, y: SInt, z: SInt): Bool = Mux(x < y, x <= z && z <= y, y <= z && z <= x)
+  val fallback = Cat(lastCell, 1.U(1.W))
+  val ownerRead = (0 until 2).map { view =>
+    val covers = (0 until K).flatMap { j =>
+      val s = win(j)
+      Seq(s.valid && between(s.e(view), s.g(view), uh), s.valid && between(s.g(view), s.f(view), uh))
+    } // index j*2 + t: drawing order
+    val any = covers.reduce(_ || _)
+    val top = (2 * K - 1).U - PriorityEncoder(covers.reverse)
+    val ownerCov = ((base << 1).asUInt + top)(cellW, 0)
+    val owner = Mux(any, ownerCov, Mux(a.u === 0.U, fallback, carry(view)))
+    when(aFire) { carry(view) := owner }
+    val planes = readBank(if (view == 0) planeBanksL else planeBanksR, planeSel, owner >> 1, cellsMax)
+    Mux(owner(0), planes(1), planes(0))
+  }
+
+  def sad16(x: UInt, y: UInt): UInt = {
+    val diffs = (0 until p.descriptorBytes).map { k =>
+      val (bx, by) = (x(8 * k + 7, 8 * k), y(8 * k + 7, 8 * k))
+      Mux(bx > by, bx - by, by - bx)
+    }
+    VecInit(diffs).reduceTree(_ +& _)
+  }
+  val mid = VecInit(Seq.fill(p.descriptorBytes)(128.U(8.W))).asUInt
+  val refL = winL(D)
+  val refR = winR(D)
+
+  class StageB extends Bundle {
+    val u = UInt(colW.W)
+    val v = UInt(rowW.W)
+    val live = Vec(2, Bool()) //            inside the margins and textured
+    val sad = Vec(2, Vec(D + 1, UInt(12.W)))
+    val tv = Vec(2, Vec(D + 1, Bool())) //  target column legal
+    val plane = Vec(2, new PlaneCoeffs(p))
+    val grid = Vec(2, Vec(S, SInt(dispW.W)))
+    val sof = Bool()
+    val eol = Bool()
+    val eof = Bool()
+  }
+  val bValid = RegInit(false.B)
+  val b = Reg(new StageB)
+  val inside = a.u >= m.U && a.u +& m.U <= width - 1.U && a.v >= m.U && a.v +& m.U <= height - 1.U
+  val gridCell = readBank(gridBanks, gridSel, a.gx, p.gridColsMax)
+  when(adv) {
+    bValid := aValid
+    b.u := a.u
+    b.v := a.v
+    b.live(0) := inside && sad16(refL, mid) >= p.matchTexture.U
+    b.live(1) := inside && sad16(refR, mid) >= p.matchTexture.U
+    for (d <- 0 to D) {
+      b.sad(0)(d) := sad16(refL, winR(D + d))
+      b.sad(1)(d) := sad16(refR, winL(D - d))
+      b.tv(0)(d) := a.u >= (m + d).U
+      b.tv(1)(d) := a.u +& (d + m).U <= width - 1.U
+    }
+    b.plane(0) := ownerRead(0)
+    b.plane(1) := ownerRead(1)
+    b.grid(0) := gridCell.left
+    b.grid(1) := gridCell.right
+    b.sof := a.u === 0.U && a.v === 0.U
+    b.eol := rowEnd(a)
+    b.eof := frameEnd(a)
+  }
+  // release the row banks after their last pixel
+  when(aFire && rowEnd(a)) {
+    when(frameEnd(a) || nextCellRow(a)) { planeFull(planeSel) := false.B }
+    when(frameEnd(a) || a.vG === (G - 1).U) { gridFull(gridSel) := false.B }
+  }
+
+  // ---------------------------------------------------------------- stage B: plane value and range
+  class StageC extends Bundle {
+    val live = Vec(2, Bool())
+    val sad = Vec(2, Vec(D + 1, UInt(12.W)))
+    val tv = Vec(2, Vec(D + 1, Bool()))
+    val grid = Vec(2, Vec(S, SInt(dispW.W)))
+    val lo = Vec(2, UInt((p.dispBits + 1).W))
+    val hi = Vec(2, UInt((p.dispBits + 1).W))
+    val empty = Vec(2, Bool())
+    val off = Vec(2, SInt(offW.W)) // lo - d_p (in -R..R when the range is not empty)
+    val priorOn = Vec(2, Bool())
+    val sof = Bool()
+    val eol = Bool()
+    val eof = Bool()
+  }
+  val cValid = RegInit(false.B)
+  val c = Reg(new StageC)
+  when(adv) {
+    cValid := bValid
+    c.live := b.live
+    c.sad := b.sad
+    c.tv := b.tv
+    c.grid := b.grid
+    c.sof := b.sof
+    c.eol := b.eol
+    c.eof := b.eof
+    for (view <- 0 until 2) {
+      val pl = b.plane(view)
+      val q = pl.c +& pl.a * (b.u.zext - pl.anchorU) +& pl.b * (b.v.zext - pl.anchorV.zext) +& (1 << 15).S
+      val dp = q >> 16
+      val loRaw = dp - R.S
+      val hiRaw = dp + R.S
+      val lo = Mux(loRaw < 0.S, 0.S, loRaw)
+      val hi = Mux(hiRaw > D.S, D.S, hiRaw)
+      c.empty(view) := lo > hi
+      c.lo(view) := lo.asUInt
+      c.hi(view) := hi.asUInt
+      c.off(view) := (lo - dp).asSInt
+      c.priorOn(view) := pl.valid
+    }
+  }
+
+  // ---------------------------------------------------------------- stage C: costs and the first minimum
+  class Cand extends Bundle {
+    val valid = Bool()
+    val cost = SInt(costW.W)
+    val d = UInt(p.dispBits.W)
+  }
+  /** The first of the minimum costs in evaluation order (strict "<": a later candidate wins only if cheaper). */
+  def firstMin(xs: Seq[Cand]): Cand =
+    if (xs.length == 1) xs.head
+    else {
+      val (l, r) = xs.splitAt(xs.length / 2)
+      val (x, y) = (firstMin(l), firstMin(r))
+      Mux(y.valid && (!x.valid || y.cost < x.cost), y, x)
+    }
+  val prior = VecInit(p.priorTable.take(R + 1).map(_.S(costW.W)))
+  val result = (0 until 2).map { view =>
+    val lo = c.lo(view)
+    val hi = c.hi(view)
+    val listLive = c.grid(view).map(_ >= 0.S).scanLeft(true.B)(_ && _).tail
+    val gridCands = (0 until S).map { k =>
+      val d = c.grid(view)(k)
+      val present = listLive(k) // the list ends at the first -1
+      val du = d.asUInt(p.dispBits - 1, 0)
+      val inRange = !c.empty(view) && du >= lo && du <= hi
+      val x = Wire(new Cand)
+      x.valid := present && !inRange && c.tv(view)(du)
+      x.cost := c.sad(view)(du).zext
+      x.d := du
+      x
+    }
+    val rangeCands = (0 to 2 * R).map { i =>
+      val d = lo +& i.U
+      val du = d(p.dispBits - 1, 0)
+      val delta = c.off(view) + i.S
+      val absDelta = Mux(delta < 0.S, (-delta).asUInt, delta.asUInt)
+      val x = Wire(new Cand)
+      x.valid := !c.empty(view) && d <= hi && c.tv(view)(du)
+      x.cost := c.sad(view)(du).zext + Mux(c.priorOn(view), prior(absDelta(log2Ceil(R + 1) - 1, 0)), 0.S)
+      x.d := du
+      x
+    }
+    val best = firstMin(gridCands ++ rangeCands)
+    Mux(c.live(view) && best.valid, best.d.zext, (-1).S(dispW.W))
+  }
+
+  when(io.out.fire) { outValid := false.B }
+  when(adv && cValid) {
+    outValid := true.B
+    outBits.data.left := result(0)
+    outBits.data.right := result(1)
+    outBits.sof := c.sof
+    outBits.eol := c.eol
+    outBits.eof := c.eof
+  }
+  io.out.valid := outValid
+  io.out.bits := outBits
+}
+
+object DenseMatcher {
+  /** floor(n / d) for a constant d and n < 2^bits, as a multiply by a rounded-up reciprocal (exact for
+    * s = bits + ceil(log2 d): the error n (M d - 2^s) / (d 2^s) stays below 1/d).
+    */
+  def divConst(n: UInt, d: Int, bits: Int): UInt = {
+    val s = bits + log2Ceil(d)
+    val mul = (BigInt(1) << s) / d + 1
+    ((n(bits - 1, 0) * mul.U) >> s).asUInt
+  }
+  /** Raster window cells: cu - 1 .. cu + ceil(dispMax / step). */
+  def rasterCells(p: ElasParams): Int = 2 + (p.dispMax + p.candidateStep - 1) / p.candidateStep
+  /** Bits of a scaled cut point (|x - s| * h <= max(maxWidth, dispMax) * step), signed. */
+  def spanBits(p: ElasParams): Int = log2Ceil(math.max(p.maxWidth, p.dispMax + 1) * p.candidateStep + 1) + 2
+  /** Both triangles' planes of one view: 2 x (a, b, c, anchorU, anchorV, valid). */
+  def planeBits(p: ElasParams): Int = 2 * (3 * 32 + p.colBits + 1 + p.rowBits + 1)
+  def gridCellBits(p: ElasParams): Int = 2 * p.storedDisparities * (p.dispBits + 1)
+  /** Cycles a frame costs beyond its pixels: the flush, the three pipeline registers, and the first row's planes
+    * and primer when they have not arrived during the first dispMax steps.
+    */
+  def cycleSlack(p: ElasParams): Int = p.dispMax + 4 + (p.latticeColsMax - 1) + rasterCells(p) + 4
+
+  def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
+    MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
+      "2 cell rows of the cells' corner disparities, Mem with 2 combinational read ports (primer, window shift)"),
+    MemoryUse("Dense", "planeBanksL", p.latticeColsMax - 1, 2 * planeBits(p),
+      "2 cell rows of both triangles' left planes, Mem with 1 combinational read port"),
+    MemoryUse("Dense", "planeBanksR", p.latticeColsMax - 1, 2 * planeBits(p),
+      "2 cell rows of both triangles' right planes, Mem with 1 combinational read port"),
+    MemoryUse("Dense", "gridBanks", p.gridColsMax, 2 * gridCellBits(p),
+      "2 grid rows of both views' candidates, Mem with 1 combinational read port"),
+    MemoryUse("Dense", "descWindow", 3 * p.dispMax + 2, 8 * p.descriptorBytes,
+      "registers: descL(n-dispMax..n), descR(n-2 dispMax..n)"),
+    MemoryUse("Dense", "raster", 2 * rasterCells(p), 1 + 6 * spanBits(p),
+      "registers: raster window and the next row's shadow")
+  )
+}

@@ -1,0 +1,393 @@
+package ielas
+
+import chisel3._
+import chisel3.util._
+
+/** Stage `interp`: every node of the filtered support lattice gets a disparity (docs/ALGORITHM.md "interp"), with the
+  * rule `p.fillRule` chosen at elaboration.
+  *
+  * Input: the [[SupportFilter]] stream (lattice raster order, every node, -1 = none, sof / eol / eof). Output: the
+  * filled lattice (every node in 0..dispMax) with the same framing. The lattice size comes from the framing (first
+  * eol gives Lw, eof gives Lh); frameWidth / frameHeight (sampled at the input start of frame) give the nodes' pixel
+  * positions min(i * step, W - 1), which only the paper rule needs. The fill's start of frame comes rows after the
+  * pixel start of frame, so the top must hold the frame size ports until then (video IP holds them for the frame).
+  *
+  * Row storage. Each input lattice row goes into one of `slots` row slots as a list of its supports, (column, value)
+  * in ascending column, plus a count: walking a row in order, the next support of the list is the nearest support
+  * at or right of the node, and the last one passed the nearest left of it, so neither rule scans a row.
+  *   list bits = slots x latticeColsMax x (idxBits + dispBits),  idxBits = log2Ceil(latticeColsMax + 1)
+  *
+  * r7 (slots = 4: row 0 waits for rows 1 and 2, and one slot is being written):
+  *   filled row above: latticeColsMax x dispBits bits (one memory; node i is read before it is overwritten).
+  *   Interpolation is linear in the lattice index: F(a + t) = d_a + floor((G + 2 t D) / (2G)), G = b - a,
+  *   D = d_b - d_a. One sequential divider (dispBits cycles) splits 2D = 2G qd + rd once per pair of supports;
+  *   along the pair F is then updated with one add and at most one carry per node.
+  * paper (slots = R + 3, R = floor(sDelta / step), at most latticeRowsMax + 1): rows j .. j + R + 1 are needed
+  *   for the vertical pair below node (j, i) (the extra row: a clipped last row H - 1 may lie within sDelta); the
+  *   full values of every slot sit in one memory per slot, so one cycle reads a whole column of the look-ahead:
+  *   ring bits  = slots x latticeColsMax x (dispBits + 1)
+  *   lastAbove bits = latticeColsMax x (1 + coordBits + dispBits): per column the last support above (valid, pixel
+  *   row, value), rewritten in full at lattice row 0 so nothing of the previous frame survives.
+  *   (kitti: R = 10, 13 slots: ring 13 x 250 x 9 = 29,250 bits, lists 13 x 250 x 16 = 52,000 bits, lastAbove
+  *   250 x 20 = 5,000 bits; r7: lists 4 x 250 x 16 = 16,000 bits, row above 250 x 8 = 2,000 bits.)
+  *   Vertical pairs read supports only (never filled values), so no filled row is kept.
+  *
+  * Schedule: 2 cycles per node (memory read, decide and emit) plus, r7 only, dispBits + 1 cycles per interpolated
+  * pair of supports, so a row takes at most [[LatticeFill.rowCycles]] = 2 Lw + ceil(Lw / 2) (dispBits + 1) + 2
+  * cycles (kitti: 1,627) against step x W = 6,210 pixel clocks per lattice row at 1 pixel per clock. The input
+  * stalls only when the slot of the row to be written is still needed (or a new frame arrives while the previous
+  * one is still being filled); the output register stalls the walk. Any gaps are fine.
+  */
+class LatticeFill(p: ElasParams) extends Module {
+  private val paper = p.fillRule == FillRule.Paper
+  private val step = p.candidateStep
+  private val reach = p.sDelta / step // R: lattice rows within sDelta of a node (plus possibly a clipped last row)
+  private val slots = LatticeFill.slots(p)
+  private val slotBits = log2Ceil(slots)
+  private val colsMax = p.latticeColsMax
+  private val idxW = LatticeFill.idxBits(p) // column index or count 0..colsMax
+  private val rowW = log2Ceil(p.latticeRowsMax + slots + 1) + 1
+  private val coordW = LatticeFill.coordBits(p)
+  private val dBits = p.dispBits
+  private val valueType = SInt((dBits + 1).W)
+
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(new Framed(SInt((p.dispBits + 1).W))))
+    val frameWidth = Input(UInt(p.colBits.W))
+    val frameHeight = Input(UInt(p.rowBits.W))
+    val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
+  })
+
+  def nextSlot(s: UInt): UInt = Mux(s === (slots - 1).U, 0.U, s + 1.U)
+  /** Writes `data` at `addr` one cycle later, from registers: no logic runs into a memory's write port (LUT-RAM
+    * writes are synchronous anyway, and the synthesis depth proxy would follow false paths through it). Safe here:
+    * a row is read at least one cycle after its last write (row wait, then read), and a node's entry of the row
+    * above is rewritten only after it was read.
+    */
+  def lateWrite[T <: Data](mem: SyncReadMem[T], en: Bool, addr: UInt, data: T): Unit = {
+    val e = RegNext(en, false.B)
+    val a = RegEnable(addr, en)
+    val d = RegEnable(data, en)
+    when(e) { mem.write(a, d) }
+  }
+  /** x * step as shifted adds (step is a small constant): Yosys would otherwise spend a DSP on it. */
+  def timesStep(x: UInt): UInt =
+    (0 until log2Ceil(step + 1)).filter(b => ((step >> b) & 1) == 1).map(b => (x << b).pad(coordW)).reduce(_ +& _)
+
+  // ---- input side: each row's supports into its slot's list ----
+  val inBusy = RegInit(false.B) //    lattice values of a frame are still expected
+  val procBusy = RegInit(false.B) //  rows of a frame are still to be filled
+  val frameDone = RegInit(false.B) // eof received: rowsIn = Lh
+  val colIn = RegInit(0.U(idxW.W))
+  val cntIn = RegInit(0.U(idxW.W))
+  val rowsIn = RegInit(0.U(rowW.W)) // complete rows received (= index of the row being written)
+  val inSlot = RegInit(0.U(slotBits.W))
+  val counts = Reg(Vec(slots, UInt(idxW.W)))
+  val lw = RegInit(0.U(idxW.W))
+  val width = RegInit(0.U(p.colBits.W))
+  val height = RegInit(0.U(p.rowBits.W))
+  val procJ = RegInit(0.U(rowW.W))
+
+  val start = io.in.valid && io.in.bits.sof && !inBusy && !procBusy
+  val slotFree = rowsIn < procJ +& slots.U // the slot of row rowsIn last held row rowsIn - slots
+  io.in.ready := Mux(inBusy, slotFree, !io.in.bits.sof || !procBusy)
+  val write = io.in.fire && (inBusy || start)
+  val writeCol = Mux(start, 0.U, colIn)
+  val writeCnt = Mux(start, 0.U, cntIn)
+  val writeRow = Mux(start, 0.U, rowsIn)
+  val writeSlot = Mux(start, 0.U, inSlot)
+  val isSupport = io.in.bits.data >= 0.S
+
+  /** List address of entry `k` of slot `s` (k < colsMax). */
+  def listAddr(s: UInt, k: UInt): UInt = {
+    val base = VecInit((0 until slots).map(x => (x * colsMax).U(log2Ceil(slots * colsMax + 1).W)))(s)
+    (base + k)(log2Ceil(slots * colsMax) - 1, 0)
+  }
+  /** A column index as a row-memory address (the index is < colsMax whenever the read matters). */
+  def col(x: UInt): UInt = x(log2Ceil(colsMax) - 1, 0)
+  val list = SyncReadMem(slots * colsMax, UInt((idxW + dBits).W))
+  lateWrite(list, write && isSupport, listAddr(writeSlot, writeCnt), Cat(writeCol, io.in.bits.data.asUInt(dBits - 1, 0)))
+
+  when(start) {
+    inBusy := true.B; procBusy := true.B; frameDone := false.B
+    rowsIn := 0.U; inSlot := 0.U
+    width := io.frameWidth; height := io.frameHeight
+  }
+  when(write) {
+    val cnt = writeCnt + isSupport.asUInt
+    colIn := writeCol + 1.U
+    cntIn := cnt
+    when(io.in.bits.eol) {
+      colIn := 0.U
+      cntIn := 0.U
+      counts(writeSlot) := cnt
+      rowsIn := writeRow + 1.U
+      inSlot := nextSlot(writeSlot)
+      when(writeRow === 0.U) { lw := writeCol + 1.U }
+      when(io.in.bits.eof) { inBusy := false.B; frameDone := true.B }
+    }
+  }
+
+  // ---- paper: the full values of every slot, one memory per slot (a column of the look-ahead per read) ----
+  val ring = if (paper) Seq.fill(slots)(SyncReadMem(colsMax, valueType)) else Nil
+  if (paper) { // as lateWrite, with one set of registers for all slots
+    val e = RegNext(write, false.B)
+    val slot = RegEnable(writeSlot, write)
+    val a = RegEnable(col(writeCol), write)
+    val d = RegEnable(io.in.bits.data, write)
+    for ((mem, s) <- ring.zipWithIndex) when(e && slot === s.U) { mem.write(a, d) }
+  }
+
+  // ---- the walk over the rows ----
+  val sIdle :: sRowWait :: sRead :: sNode :: sDiv :: Nil = Enum(5)
+  val state = RegInit(sIdle)
+  val procSlot = RegInit(0.U(slotBits.W)) // slot of row procJ
+  val srcSlot = Reg(UInt(slotBits.W)) //     slot whose list fills the row (r7 row 0: row 1 or 2)
+  val n = Reg(UInt(idxW.W)) //               supports in the source row
+  val i = Reg(UInt(idxW.W))
+  val k = Reg(UInt(idxW.W)) //               next list entry: the first support at or right of i
+  val aValid = Reg(Bool()) //                a support left of i was passed: a
+  val aIdx = Reg(UInt(idxW.W))
+  val aVal = Reg(UInt(dBits.W))
+  // r7 row modes
+  val useList = Reg(Bool()) //  the row has supports (else: r7 copies the row above, or 0 for row 0)
+  val useAbove = Reg(Bool()) // jumps choose against the filled row above (false on row 0)
+  val zeros = Reg(Bool()) //    row 0 with no support in rows 0..2
+  // pixel positions (paper)
+  val uRaw = Reg(UInt(coordW.W)) // i * step
+  val vRaw = Reg(UInt(coordW.W)) // procJ * step
+
+  val kIn = k < n
+  val entry = list.read(listAddr(srcSlot, Mux(k < colsMax.U, k, 0.U)))
+  val bIdx = entry(idxW + dBits - 1, dBits)
+  val bVal = entry(dBits - 1, 0)
+  val bHere = kIn && bIdx === i
+  val both = aValid && kIn
+
+  val outValid = RegInit(false.B)
+  val outBits = Reg(new Framed(valueType))
+  val outFree = !outValid || io.out.ready
+  when(io.out.fire) { outValid := false.B }
+  io.out.valid := outValid
+  io.out.bits := outBits
+
+  def absDiff(x: UInt, y: UInt): UInt = Mux(x > y, x - y, y - x)
+  val lo = Mux(aVal < bVal, aVal, bVal)
+  val hi = Mux(aVal < bVal, bVal, aVal)
+
+  val value = Wire(UInt(dBits.W))
+  val doEmit = WireDefault(false.B)
+  val pairStep = WireDefault(false.B) // r7: an interpolated node advances the pair's (q, r)
+  val eol = i === lw - 1.U
+  val eof = eol && frameDone && procJ === rowsIn - 1.U
+
+  if (!paper) {
+    // ---- r7 ----
+    val eps = p.fillEpsilon
+    val above = SyncReadMem(colsMax, UInt(dBits.W)) // the filled row above; node i read before it is rewritten
+    val up = above.read(col(i))
+    val jump = Mux(useAbove && absDiff(hi, up) < absDiff(lo, up), hi, lo) // a tie goes to lo
+    val near = absDiff(aVal, bVal) <= eps.U
+
+    // The pair's division: 2D = 2G qd + rd with 0 <= rd < 2G (D = bVal - aVal, G = bIdx - aIdx), then per node
+    // (q, r) <- (q + qd, r + rd), carrying 2G into q: q = d_a + floor((G + 2tD) / (2G)) at node a + t.
+    val gW = idxW
+    val segReady = Reg(Bool())
+    val g = Reg(UInt(gW.W))
+    val qd = Reg(SInt((dBits + 2).W))
+    val rd = Reg(UInt((gW + 1).W))
+    val segQ = Reg(SInt((dBits + 2).W))
+    val segR = Reg(UInt((gW + 2).W))
+    val divNum = Reg(UInt(dBits.W)) // |D| shifted out, quotient shifted in
+    val divRem = Reg(UInt(gW.W))
+    val divCnt = Reg(UInt(log2Ceil(dBits + 1).W))
+    val divNeg = Reg(Bool())
+
+    val rSum = segR +& rd
+    val carry = rSum >= (g << 1)
+    val qNext = segQ + qd + carry.asUInt.zext
+    val rNext = Mux(carry, rSum - (g << 1), rSum)
+
+    value := Mux(zeros, 0.U, Mux(!useList, up,
+      Mux(bHere || !aValid, bVal, Mux(!kIn, aVal, Mux(near, qNext.asUInt(dBits - 1, 0), jump)))))
+    val needDiv = useList && !bHere && both && near && !segReady
+
+    when(state === sNode && needDiv) {
+      val gNew = bIdx - aIdx
+      g := gNew
+      divNum := absDiff(bVal, aVal)
+      divNeg := bVal < aVal
+      divRem := 0.U
+      divCnt := 0.U
+      state := sDiv
+    }
+    when(state === sDiv) {
+      val shifted = Cat(divRem, divNum(dBits - 1))
+      val ge = shifted >= g
+      val rem = Mux(ge, shifted - g, shifted)
+      divRem := rem
+      divNum := Cat(divNum(dBits - 2, 0), ge)
+      divCnt := divCnt + 1.U
+      when(divCnt === (dBits - 1).U) {
+        val q0 = Cat(divNum(dBits - 2, 0), ge).zext
+        // floor and a non-negative remainder for a negative D
+        qd := Mux(divNeg, Mux(rem === 0.U, -q0, -q0 - 1.S), q0)
+        rd := Mux(divNeg && rem =/= 0.U, g - rem, rem) << 1
+        segQ := aVal.zext
+        segR := g
+        segReady := true.B
+        state := sNode
+      }
+    }
+    lateWrite(above, doEmit, col(i), value)
+    when(doEmit) {
+      when(pairStep) { segQ := qNext; segR := rNext }
+      when(bHere) { segReady := false.B }
+    }
+    when(state === sRowWait) { segReady := false.B }
+    pairStep := useList && !bHere && both && near
+    doEmit := state === sNode && !needDiv && outFree
+  } else {
+    // ---- paper ----
+    val sDelta = p.sDelta.U
+    val wLast = width - 1.U
+    val hLast = height - 1.U
+    def clip(x: UInt, last: UInt): UInt = Mux(x > last, last, x)
+    def pair(x: UInt, y: UInt): UInt = Mux(absDiff(x, y) <= p.epsilon.U, ((x +& y +& 1.U) >> 1)(dBits - 1, 0), Mux(x < y, x, y))
+
+    val aU = Reg(UInt(coordW.W))
+    val u = clip(uRaw, wLast)
+    val bU = clip(timesStep(bIdx), wLast)
+    val horizontal = aValid && u - aU <= sDelta && kIn && bU - u <= sDelta
+
+    // last support above in this column (valid, pixel row, value)
+    val lastAbove = SyncReadMem(colsMax, UInt((1 + coordW + dBits).W))
+    val la = lastAbove.read(col(i))
+    val laValid = la(coordW + dBits)
+    val laV = la(coordW + dBits - 1, dBits)
+    val laVal = la(dBits - 1, 0)
+    val v = clip(vRaw, hLast)
+    val topOk = procJ =/= 0.U && laValid && v - laV <= sDelta
+
+    // nearest support below within sDelta px: offsets 1 .. R + 1 of the ring (R + 2 is never within reach, and its
+    // slot may be the one being written), first hit wins
+    val column = ring.map(_.read(col(i)))
+    val below = (1 to math.min(reach + 1, slots - 1)).map { o =>
+      val d = VecInit((0 until slots).map(s => column((s + o) % slots)))(procSlot) // row procJ + o
+      val exists = procJ +& o.U < rowsIn
+      val ok = exists && d >= 0.S && clip(vRaw +& (o * step).U, hLast) - v <= sDelta
+      (ok, d.asUInt(dBits - 1, 0))
+    }
+    val bottomOk = below.map(_._1).reduce(_ || _)
+    val bottom = PriorityMux(below.map(_._1) :+ true.B, below.map(_._2) :+ 0.U(dBits.W))
+    val vertical = topOk && bottomOk
+
+    value := Mux(bHere, bVal, Mux(horizontal, pair(aVal, bVal), Mux(vertical, pair(laVal, bottom), p.fillC.U)))
+    doEmit := state === sNode && outFree
+
+    when(doEmit && bHere) { aU := u }
+    lateWrite(lastAbove, doEmit && (procJ === 0.U || bHere), col(i), Cat(bHere, v, bVal)) // row 0 clears the previous frame
+    // case counters for waveforms and the spec's coverage report live in the test (from the golden input)
+  }
+
+  // ---- row sequencing ----
+  val c = counts
+  switch(state) {
+    is(sIdle) {
+      when(start) { procJ := 0.U; procSlot := 0.U; vRaw := 0.U; state := sRowWait }
+    }
+    is(sRowWait) {
+      val ready = if (paper) frameDone || rowsIn > procJ +& (reach + 1).U
+                  else frameDone || Mux(procJ === 0.U, rowsIn >= 3.U, rowsIn > procJ)
+      when(ready) {
+        i := 0.U; k := 0.U; aValid := false.B; uRaw := 0.U
+        srcSlot := procSlot
+        n := c(procSlot)
+        useList := c(procSlot) =/= 0.U || paper.B
+        useAbove := procJ =/= 0.U
+        zeros := false.B
+        if (!paper) when(procJ === 0.U && c(0) === 0.U) {
+          // row 0 (never a support row): the first of rows 1..2 with a support, filled without a row above
+          val one = rowsIn > 1.U && c(1) =/= 0.U
+          val two = rowsIn > 2.U && c(2) =/= 0.U
+          srcSlot := Mux(one, 1.U, 2.U)
+          n := Mux(one, c(1), c(2))
+          useList := one || two
+          zeros := !one && !two
+        }
+        state := sRead
+      }
+    }
+    is(sRead) { state := sNode } // list entry k and column i are read this cycle
+    is(sNode) {
+      when(doEmit) {
+        outValid := true.B
+        outBits.data := value.zext
+        outBits.sof := i === 0.U && procJ === 0.U
+        outBits.eol := eol
+        outBits.eof := eof
+        when(bHere) { aValid := true.B; aIdx := i; aVal := bVal; k := k + 1.U }
+        i := i + 1.U
+        uRaw := uRaw + step.U
+        state := sRead
+        when(eol) {
+          procJ := procJ + 1.U
+          procSlot := nextSlot(procSlot)
+          vRaw := vRaw + step.U
+          state := sRowWait
+        }
+        when(eof) { state := sIdle; procBusy := false.B }
+      }
+    }
+  }
+}
+
+object LatticeFill {
+  /** Row slots: r7 keeps rows 0..2 for row 0 plus the row being written; paper keeps rows j .. j + R + 1 plus the
+    * row being written (R = floor(sDelta / step)), never more than the whole lattice plus one.
+    */
+  def slots(p: ElasParams): Int = p.fillRule match {
+    case FillRule.R7 => 4
+    case FillRule.Paper => math.max(2, math.min(p.sDelta / p.candidateStep + 3, p.latticeRowsMax + 1))
+  }
+  def idxBits(p: ElasParams): Int = log2Ceil(p.latticeColsMax + 1)
+  /** Pixel coordinates of nodes, including the unclipped i * step + (slots + 1) * step of the look-ahead. */
+  def coordBits(p: ElasParams): Int =
+    log2Ceil(math.max(p.maxWidth, p.maxHeight) + (slots(p) + 2) * p.candidateStep + 1)
+
+  /** Worst-case cycles for one lattice row of `lw` nodes (r7: every other node a support, each pair divided). */
+  def rowCycles(p: ElasParams, lw: Int): Int = p.fillRule match {
+    case FillRule.R7 => 2 * lw + (lw + 1) / 2 * (p.dispBits + 1) + 2
+    case FillRule.Paper => 2 * lw + 2
+  }
+
+  def memorySummary(p: ElasParams): Seq[MemoryUse] = {
+    val s = slots(p)
+    val lists = MemoryUse("LatticeFill", "lists", s * p.latticeColsMax, idxBits(p) + p.dispBits,
+      s"$s row slots of (column, value) support lists, one SyncReadMem 1R1W")
+    p.fillRule match {
+      case FillRule.R7 => Seq(lists,
+        MemoryUse("LatticeFill", "above", p.latticeColsMax, p.dispBits, "the filled row above, SyncReadMem 1R1W"))
+      case FillRule.Paper => Seq(lists,
+        MemoryUse("LatticeFill", "ring", p.latticeColsMax, s * (p.dispBits + 1),
+          s"$s lattice rows of ${p.dispBits + 1}-bit values, one SyncReadMem 1R1W per row"),
+        MemoryUse("LatticeFill", "lastAbove", p.latticeColsMax, 1 + coordBits(p) + p.dispBits,
+          "per column the last support above (valid, pixel row, value), SyncReadMem 1R1W"))
+    }
+  }
+}
+
+/** Stage-test chain: pixel input -> [[Descriptor]] -> [[SupportMatcher]] -> [[SupportFilter]] -> [[LatticeFill]]. */
+class LatticeFillChain(p: ElasParams) extends LatticeChain(p) {
+  val support = Module(new SupportChain(p))
+  val filter = Module(new SupportFilter(p))
+  val fill = Module(new LatticeFill(p))
+  support.io.in <> io.in
+  support.io.frameWidth := io.frameWidth
+  support.io.frameHeight := io.frameHeight
+  filter.io.in <> support.io.out
+  fill.io.in <> filter.io.out
+  fill.io.frameWidth := io.frameWidth
+  fill.io.frameHeight := io.frameHeight
+  io.out <> fill.io.out
+}

@@ -1,0 +1,82 @@
+package ielas
+
+import chisel3._
+import chisel3.util._
+
+/** Stage `post` (docs/ALGORITHM.md "post", golden postprocess.cpp): lrcheck_L in, disparity * 16 out (-1 invalid),
+  * raster order with the same framing (eof on the last pixel). The steps, in pipeline order, each a Decoupled
+  * module with bounded row buffers:
+  *   [[PostProcessSpeckle]] (small segments, L = speckleWindowRows) -> [[PostRowGaps]] (x16, row gaps, corners)
+  *   -> [[PostColumnGaps]] (G = min(ipolGapWidth, ipolColumnWindow) rows) -> [[PostMean]] horizontal + vertical
+  *   (filterAdaptiveMean) and/or [[PostMedian]] horizontal + vertical (filterMedian).
+  * Latency in rows (steady state): (L + 2) + 1 + (G + 1) + 1 + 4, i.e. (L - 1) + G + 3 of the algorithm's
+  * look-ahead plus the rows each step needs to see its own row complete (+ 5): see [[PostProcess.latencyRows]].
+  */
+class PostProcess(p: ElasParams) extends Module {
+  private val vW = p.dispBits + 1
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(new Framed(SInt(vW.W))))
+    val frameWidth = Input(UInt(p.colBits.W))
+    val frameHeight = Input(UInt(p.rowBits.W))
+    val out = Decoupled(new Framed(SInt(16.W)))
+  })
+  val speckle = Module(new PostProcessSpeckle(p))
+  speckle.io.in <> io.in
+  speckle.io.frameWidth := io.frameWidth
+  speckle.io.frameHeight := io.frameHeight
+
+  val rows = Module(new PostRowGaps(p))
+  rows.io.in.valid := speckle.io.out.valid
+  speckle.io.out.ready := rows.io.in.ready
+  rows.io.in.bits.data := speckle.io.out.bits.data
+  rows.io.in.bits.sof := speckle.io.out.bits.sof
+  rows.io.in.bits.eol := speckle.io.out.bits.eol
+  rows.io.in.bits.eof := speckle.io.out.bits.eof
+  rows.io.in.bits.lastRow := speckle.io.outLastRow
+
+  val cols = Module(new PostColumnGaps(p))
+  cols.io.in <> rows.io.out
+  var tail: DecoupledIO[PostBeat] = cols.io.out
+  if (p.filterAdaptiveMean) {
+    val h = Module(new PostMean(p, vertical = false))
+    val v = Module(new PostMean(p, vertical = true))
+    h.io.in <> tail; v.io.in <> h.io.out
+    tail = v.io.out
+  }
+  if (p.filterMedian) {
+    val h = Module(new PostMedian(p, vertical = false))
+    val v = Module(new PostMedian(p, vertical = true))
+    h.io.in <> tail; v.io.in <> h.io.out
+    tail = v.io.out
+  }
+  io.out.valid := tail.valid
+  tail.ready := io.out.ready
+  io.out.bits.data := tail.bits.data
+  io.out.bits.sof := tail.bits.sof
+  io.out.bits.eol := tail.bits.eol
+  io.out.bits.eof := tail.bits.eof
+}
+
+object PostProcess {
+  def columnWindow(p: ElasParams): Int = math.min(p.ipolGapWidth, p.ipolColumnWindow)
+  /** Rows from an input row to the same output row, steady state (each RowRing step adds below + 1 rows). */
+  def latencyRows(p: ElasParams): Int =
+    PostProcessSpeckle.latencyRows(p) + 1 + (columnWindow(p) + 1) +
+      (if (p.filterAdaptiveMean) 1 + 4 else 0) + (if (p.filterMedian) 1 + 4 else 0)
+
+  def memorySummary(p: ElasParams): Seq[MemoryUse] = {
+    val w = p.maxWidth
+    val g = columnWindow(p)
+    PostProcessSpeckle.memorySummary(p) ++ Seq(
+      MemoryUse("PostRows", "rows", 2 * w, p.dispBits + 1, "2 row slots"),
+      MemoryUse("PostRows", "runs", 2 * w, p.colBits + p.dispBits + 1, "run table (end column, right value), 2 rows"),
+      MemoryUse("PostCols", "rows", (g + 2) * w, 1 + p.rowBits + 1 + 16, "(G + 2) row slots: value or fill, marker, end row"),
+      MemoryUse("PostCols", "columns", 2 * w, 1 + p.rowBits + 1 + 16, "last valid above / running fill per column")) ++
+      (if (p.filterAdaptiveMean) Seq(
+        MemoryUse("PostMean", "rowsH", 2 * w, 16, "2 row slots"),
+        MemoryUse("PostMean", "rowsV", 9 * w, 16, "9 row slots (rows v-4..v+3 + 1)")) else Nil) ++
+      (if (p.filterMedian) Seq(
+        MemoryUse("PostMedian", "rowsH", 2 * w, 16, "2 row slots"),
+        MemoryUse("PostMedian", "rowsV", 8 * w, 17, "8 row slots (rows v-3..v+3 + 1)")) else Nil)
+  }
+}

@@ -1,0 +1,341 @@
+package ielas
+
+import chisel3._
+import chisel3.util._
+
+/** Stage `post`, step 1: bounded small-segment removal (docs/ALGORITHM.md "post" 1, golden removeSmallSegments).
+  *
+  * Input: lrcheck_L in raster order (-1 invalid), frame size sampled at start of frame. Output: the same map with the
+  * pixels of small closed segments set to -1, same framing (eof on the last pixel).
+  *
+  * Rule: a pixel in row v of segment S becomes -1 iff |S| < speckleSize and NOT (v + L - 1 < H - 1 and S reaches
+  * row v + L - 1), L = speckleWindowRows.
+  *
+  * How it streams (one row = one "row step" of four engines, each 1 item per clock):
+  *  - A (labelling) takes row k. Each run of horizontally connected pixels gets a node id (0..N_k-1, left to
+  *    right). Row k-1's components ("classes", flat ids from K_{k-1}) touched by row k are merged through the
+  *    table R_k (class -> a row-k node). Because the pixel graph is planar, the classes along a row form a
+  *    non-crossing partition, so the row-k components behave like a stack: a merge always joins the current top
+  *    with an older node m (whose class is still touched later), and m becomes the top; nothing but the merge
+  *    pointer P_k[top] = m (m < top) and m's saturating size changes. No find() chain is ever followed in A.
+  *  - B (flatten) sweeps P_k in increasing id order during row k+1: K_k[x] = x if P_k[x] = x else K_k[P_k[x]]
+  *    (P_k[x] < x is already flat). A reads K_k (with a bypass of B's current position) while B writes it.
+  *  - C (forward map) builds F_k during row k+1: for each row-(k-1) node x, F_k[x] = "open, node R_k[c]" if its
+  *    class c = K_{k-1}[x] was touched by row k, else "closed, size S_{k-1}[c]" (final). After a frame's last row
+  *    a virtual empty row closes every class.
+  *  - D (output) reads row v from the delay line and sends every pixel's node through F_{v+1} .. F_{v+n},
+  *    n = L - 1, or H - v at the end of the frame (then the chain ends at the virtual row, where all are closed):
+  *    one lookup per pipeline stage, 1 pixel per clock. A closed small result is removed, open is kept.
+  *
+  * Buffers (W = maxWidth, ids idW = log2(W) bits, size sW = log2(speckleSize + 1) bits, L = speckleWindowRows):
+  *   delay line   (L + 4) rows x W x (dispBits + 1 + idW)
+  *   F maps       (L + 2) rows x W x (1 + max(idW, sW)), one memory per row, 2 read ports
+  *   P, R         2 rows x W x idW each;  K, S  3 rows x W x idW / sW;  R valid flags 2 x W bits (registers)
+  * Latency: row v leaves once row v + L + 1 is being labelled, i.e. about (L + 1) rows plus L + 3 clocks.
+  * The memories are combinational-read (LUT RAM).
+  */
+class PostProcessSpeckle(p: ElasParams) extends Module {
+  private val L = p.speckleWindowRows
+  private val W = p.maxWidth
+  private val ND = PostProcessSpeckle.delayRows(p)
+  private val NF = PostProcessSpeckle.mapRows(p)
+  private val idW = PostProcessSpeckle.idBits(p)
+  private val sW = PostProcessSpeckle.sizeBits(p)
+  private val fW = math.max(idW, sW)
+  private val cap = p.speckleSize
+  private val T = p.speckleSimThreshold
+  private val vW = p.dispBits + 1
+  private val seqW = 16 // row sequence counters; engines are never more than ND rows apart
+
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(new Framed(SInt(vW.W))))
+    val frameWidth = Input(UInt(p.colBits.W))
+    val frameHeight = Input(UInt(p.rowBits.W))
+    val out = Decoupled(new Framed(SInt(vW.W)))
+    /** With io.out: the pixel lies in the frame's last row. */
+    val outLastRow = Output(Bool())
+  })
+
+  private def satAdd(a: UInt, b: UInt): UInt = { val s = a +& b; Mux(s >= cap.U, cap.U, s)(sW - 1, 0) }
+  private def similar(a: SInt, b: SInt): Bool = (a - b).abs.asUInt <= T.U
+  private def seqGe(a: UInt, b: UInt): Bool = !(a - b)(seqW - 1) // a >= b modulo 2^seqW
+
+  // ---- per-row metadata ring, indexed by row sequence mod ND ----
+  val metaVirtual = Reg(Vec(ND, Bool()))
+  val metaRow = Reg(Vec(ND, UInt(p.rowBits.W)))
+  val metaW = Reg(Vec(ND, UInt(p.colBits.W)))
+  val metaH = Reg(Vec(ND, UInt(p.rowBits.W)))
+  val metaN = Reg(Vec(ND, UInt((idW + 1).W))) // nodes of the row
+  private def slotOf(seq: UInt, n: Int): UInt = if (n == 1) 0.U else (seq % n.U)(log2Ceil(n) - 1, 0)
+
+  // ---- memories ----
+  val delay = Mem(ND * W, UInt((vW + idW).W))
+  // F maps, one memory per row slot, {closed, size or node}. Chain stage i reads slot (seq + i) mod NF; stages of
+  // one row read consecutive slots and only adjacent stages (across a row boundary) can meet on one slot, so two
+  // read ports per slot suffice: even stages on port 0, odd stages on port 1.
+  val fMaps = Seq.fill(NF)(Mem(W, UInt((1 + fW).W)))
+  val pMem = Mem(2 * W, UInt(idW.W))
+  val kMem = Mem(3 * W, UInt(idW.W)) // 3 rows: B never waits for C to finish reading K_{k-2}
+  val rMem = Mem(2 * W, UInt(idW.W))
+  val sMem = Mem(3 * W, UInt(sW.W))
+  val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
+  private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, rValid(1), rValid(0))(idx)
+  // The last top node of a finished row and its size (not written back to sMem), per S buffer.
+  val finTop = Reg(Vec(3, UInt(idW.W)))
+  val finSize = Reg(Vec(3, UInt(sW.W)))
+  val finAny = RegInit(VecInit(Seq.fill(3)(false.B)))
+  private def addr(slot: UInt, x: UInt): UInt = slot * W.U + x
+  private def readS(buf: UInt, x: UInt): UInt =
+    Mux(finAny(buf) && finTop(buf) === x, finSize(buf), sMem(addr(buf, x)))
+
+  // ---- engine counters (row sequence numbers) ----
+  val aNext = RegInit(0.U(seqW.W)); val aBusy = RegInit(false.B)
+  val bNext = RegInit(0.U(seqW.W)); val bBusy = RegInit(false.B)
+  val cNext = RegInit(0.U(seqW.W)); val cBusy = RegInit(false.B)
+  val dDone = RegInit(0.U(seqW.W)) // rows retired by D (left the last chain stage)
+  val bDoneCnt = bNext
+  val cDoneCnt = cNext
+
+  // ===== A: labelling =====
+  val inFrame = RegInit(false.B) // rows of a frame remain to be labelled
+  val needVirtual = RegInit(false.B) // the frame's last row is labelled; the virtual row comes next
+  val frameW = Reg(UInt(p.colBits.W)); val frameH = Reg(UInt(p.rowBits.W))
+  val aRow = Reg(UInt(p.rowBits.W)) // row in frame of the next / current row
+  val aCol = Reg(UInt(p.colBits.W))
+  val aSeq = aNext
+  val aSlotD = slotOf(aSeq, ND)
+  val aPrevSlotD = slotOf(aSeq - 1.U, ND)
+  val aP = slotOf(aSeq, 2)
+  val aS = slotOf(aSeq, 3); val aSprev = slotOf(aSeq - 1.U, 3)
+  val cnt = Reg(UInt((idW + 1).W)) // nodes allocated in this row
+  val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
+  val runId = Reg(UInt(idW.W))
+  val leftVal = Reg(SInt(vW.W))
+
+  // B (declared here: A reads K_{k-1} while B writes it)
+  val bx = Reg(UInt((idW + 1).W))
+  val bCanStart = !bBusy && seqGe(aNext, bNext + 1.U) && seqGe(cDoneCnt + 1.U, bNext)
+  val bActive = bBusy || bCanStart
+  val bxEff = Mux(bBusy, bx, 0.U)
+  val bComputed = Wire(UInt(idW.W))
+  val bStarted = Mux(bActive, bNext + 1.U, bNext)
+
+  val canStartRow = !aBusy && seqGe(bStarted, aSeq) && seqGe(cDoneCnt + 1.U, aSeq) && seqGe(dDone + ND.U, aSeq + 1.U)
+  val rowStartNow = !aBusy
+  val col = Mux(aBusy, aCol, 0.U)
+  // the up pixel (row aRow - 1) at this column
+  val upWord = delay(addr(aPrevSlotD, col))
+  val upVal = upWord(vW + idW - 1, idW).asSInt
+  val upId = upWord(idW - 1, 0)
+  val hasUp = aRow =/= 0.U
+  val inV = io.in.bits.data
+  val valid = inV >= 0.S
+  val connectL = valid && col =/= 0.U && leftVal >= 0.S && similar(inV, leftVal)
+  val connectU = valid && hasUp && upVal >= 0.S && similar(inV, upVal)
+  // K_{k-1}[upId], the flat class: B is flattening row k-1 right now or has finished it (bypass at its position)
+  val bOnPrev = bActive && bNext === aSeq - 1.U
+  val kBuf = slotOf(aSeq - 1.U, 3)
+  val cls = Mux(bOnPrev && upId === bxEff, bComputed, kMem(addr(kBuf, upId)))
+  val kReady = !bOnPrev || upId <= bxEff
+  io.in.ready := inFrame && (aBusy || canStartRow) && (!connectU || kReady)
+  val take = io.in.fire
+
+  // idle between frames: a beat starts a frame (size sampled now, the beat is taken from the next cycle on)
+  when(!inFrame && !needVirtual && !aBusy && io.in.valid) {
+    inFrame := true.B; frameW := io.frameWidth; frameH := io.frameHeight; aRow := 0.U
+  }
+
+  val cntBase = Mux(rowStartNow, 0.U, cnt)
+  val topAnyBase = !rowStartNow && topAny
+  val nodeNow = cntBase(idW - 1, 0)
+  val newRun = valid && !connectL
+  val pushTop = Mux(newRun, nodeNow, top)
+  val thisRun = Mux(newRun, nodeNow, runId)
+  val baseSize = Mux(newRun, 1.U(sW.W), satAdd(topSize, Mux(valid, 1.U, 0.U)))
+  val rv = !rowStartNow && rvRead(aP, cls)
+  val rn = rMem(addr(aP, cls))
+  val touchNew = connectU && !rv
+  val touchOld = connectU && rv && rn =/= pushTop
+  // m's size: in S_k, or in topSize when m is the old top written back by a push this very cycle
+  val mSize = Mux(newRun && topAnyBase && rn === top, topSize, sMem(addr(aS, rn)))
+  val newTop = Mux(touchOld, rn, pushTop)
+  val newSize = Mux(touchNew, satAdd(baseSize, readS(aSprev, cls)), Mux(touchOld, satAdd(baseSize, mSize), baseSize))
+  val lastCol = col === frameW - 1.U
+  when(take) {
+    when(rowStartNow) {
+      aBusy := true.B
+      metaVirtual(aSlotD) := false.B; metaRow(aSlotD) := aRow; metaW(aSlotD) := frameW; metaH(aSlotD) := frameH
+      finAny(aS) := false.B
+    }
+    when(newRun) {
+      cnt := cntBase + 1.U
+      runId := nodeNow
+      when(topAnyBase) { sMem.write(addr(aS, top), topSize) } // the old top stops being the top
+    }.otherwise { cnt := cntBase }
+    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U) {
+      r := Mux(rowStartNow, 0.U, r) | Mux(touchNew, UIntToOH(cls, W), 0.U)
+    }
+    when(touchNew) { rMem.write(addr(aP, cls), pushTop) }
+    when(newRun || touchOld) { pMem.write(addr(aP, pushTop), Mux(touchOld, rn, pushTop)) }
+    top := newTop
+    topSize := newSize
+    topAny := topAnyBase || valid
+    delay.write(addr(aSlotD, col), Cat(inV.asUInt, thisRun))
+    leftVal := inV
+    aCol := col + 1.U
+    when(lastCol) {
+      aBusy := false.B
+      aNext := aNext + 1.U
+      metaN(aSlotD) := Mux(newRun, cntBase + 1.U, cntBase)
+      finAny(aS) := topAnyBase || valid
+      finTop(aS) := newTop
+      finSize(aS) := newSize
+      aRow := aRow + 1.U
+      when(aRow === frameH - 1.U) { inFrame := false.B; needVirtual := true.B }
+    }
+  }
+  // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row).
+  when(needVirtual && canStartRow) {
+    needVirtual := false.B
+    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U) { r := 0.U }
+    metaVirtual(aSlotD) := true.B; metaRow(aSlotD) := frameH; metaW(aSlotD) := frameW; metaH(aSlotD) := frameH
+    metaN(aSlotD) := 0.U
+    finAny(aS) := false.B
+    aNext := aNext + 1.U
+  }
+
+  // ===== B: flatten P_k into K_k (one node per clock, from the cycle it may start) =====
+  val bSlot = slotOf(bNext, 2)
+  val bKslot = slotOf(bNext, 3)
+  val bN = metaN(slotOf(bNext, ND))
+  val bPx = pMem(addr(bSlot, bxEff(idW - 1, 0)))
+  bComputed := Mux(bPx === bxEff(idW - 1, 0), bPx, kMem(addr(bKslot, bPx)))
+  when(bActive) {
+    when(bxEff < bN) { kMem.write(addr(bKslot, bxEff(idW - 1, 0)), bComputed) }
+    when(bxEff + 1.U >= bN) { bBusy := false.B; bNext := bNext + 1.U }.otherwise { bBusy := true.B; bx := bxEff + 1.U }
+  }
+
+  // ===== C: forward map F_k for the nodes of row k - 1 =====
+  val cx = Reg(UInt((idW + 1).W))
+  val cFirst = RegInit(true.B) // sequence 0 has no row before it
+  val cPrevN = Mux(cFirst, 0.U, metaN(slotOf(cNext - 1.U, ND)))
+  val cKbuf = slotOf(cNext - 1.U, 3)
+  val cRbuf = slotOf(cNext, 2)
+  val cSbuf = slotOf(cNext - 1.U, 3)
+  val cFslot = slotOf(cNext, NF)
+  val cCanStart = !cBusy && seqGe(aNext, cNext + 1.U) && seqGe(bDoneCnt, cNext) && seqGe(dDone + NF.U, cNext + 1.U)
+  val cActive = cBusy || cCanStart
+  val cxEff = Mux(cBusy, cx, 0.U)
+  val cClass = kMem(addr(cKbuf, cxEff(idW - 1, 0)))
+  val cOpen = rvRead(cRbuf, cClass)
+  val cEntry = Mux(cOpen, Cat(0.U(1.W), rMem(addr(cRbuf, cClass)).pad(fW)),
+    Cat(1.U(1.W), readS(cSbuf, cClass).pad(fW)))
+  when(cActive) {
+    when(cxEff < cPrevN) {
+      for ((m, b) <- fMaps.zipWithIndex) when(cFslot === b.U) { m.write(cxEff(idW - 1, 0), cEntry) }
+    }
+    when(cxEff + 1.U >= cPrevN) { cBusy := false.B; cNext := cNext + 1.U; cFirst := false.B }
+      .otherwise { cBusy := true.B; cx := cxEff + 1.U }
+  }
+
+  // ===== D: output chain =====
+  class Beat extends Bundle {
+    val seq = UInt(seqW.W)
+    val value = SInt(vW.W)
+    val closed = Bool()
+    val ptr = UInt(fW.W)
+    val n = UInt(log2Ceil(L + 2).W) // chain length for this row
+    val sof = Bool(); val eol = Bool(); val eof = Bool(); val lastRow = Bool()
+    val virt = Bool()
+  }
+  val stages = Seq.fill(L + 1)(RegInit(0.U.asTypeOf(Valid(new Beat))))
+  val outReg = RegInit(0.U.asTypeOf(Valid(new Framed(SInt(vW.W)))))
+  val outLast = RegInit(false.B)
+  io.outLastRow := outLast
+  val advance = !outReg.valid || io.out.ready
+  io.out.valid := outReg.valid
+  io.out.bits := outReg.bits
+  when(io.out.fire) { outReg.valid := false.B }
+
+  val dNext = RegInit(0.U(seqW.W)) // row being issued
+  val dCol = RegInit(0.U(p.colBits.W))
+  val dSlot = slotOf(dNext, ND)
+  val dVirt = metaVirtual(dSlot)
+  val dRowV = metaRow(dSlot); val dH = metaH(dSlot); val dWd = metaW(dSlot)
+  val dLen = Mux(dRowV +& (L - 1).U < dH - 1.U, (L - 1).U, dH - dRowV)
+  val dReady = seqGe(aNext, dNext + 1.U) && Mux(dVirt, true.B, seqGe(cDoneCnt, dNext + dLen + 1.U))
+  val word = delay(addr(dSlot, dCol))
+  val issue = dReady && advance
+  val s0 = Wire(Valid(new Beat))
+  s0.valid := issue
+  s0.bits.seq := dNext
+  s0.bits.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
+  s0.bits.closed := false.B
+  s0.bits.ptr := word(idW - 1, 0)
+  s0.bits.n := Mux(dVirt, 0.U, dLen)
+  s0.bits.sof := !dVirt && dRowV === 0.U && dCol === 0.U
+  s0.bits.eol := !dVirt && dCol === dWd - 1.U
+  s0.bits.eof := !dVirt && dCol === dWd - 1.U && dRowV === dH - 1.U
+  s0.bits.lastRow := dRowV === dH - 1.U
+  s0.bits.virt := dVirt
+  when(issue) {
+    when(dVirt || dCol === dWd - 1.U) { dCol := 0.U; dNext := dNext + 1.U }.otherwise { dCol := dCol + 1.U }
+  }
+  // stage i (1..L) applies F_{seq + i} when i <= n
+  private val targets = (1 to L).map(i => slotOf(stages(i - 1).bits.seq + i.U, NF))
+  private val ptrs = (1 to L).map(i => stages(i - 1).bits.ptr(idW - 1, 0))
+  private def applies(i: Int, b: Beat): Bool = b.value >= 0.S && !b.closed && i.U <= b.n
+  private val needs = (1 to L).map(i => stages(i - 1).valid && applies(i, stages(i - 1).bits))
+  private val portData = fMaps.zipWithIndex.map { case (m, b) =>
+    (0 until 2).map { q =>
+      val users = (1 to L).filter(_ % 2 == q)
+      if (users.isEmpty) 0.U else m(PriorityMux(users.map(i => needs(i - 1) && targets(i - 1) === b.U) :+ true.B, users.map(i => ptrs(i - 1)) :+ 0.U))
+    }
+  }
+  private def lookup(i: Int, b: Beat): Beat = {
+    val r = Wire(new Beat)
+    r := b
+    val apply = applies(i, b)
+    val e = Mux1H(fMaps.indices.map(k => targets(i - 1) === k.U), portData.map(_(i % 2)))
+    when(apply) { r.closed := e(fW); r.ptr := e(fW - 1, 0) }
+    r
+  }
+  when(advance) {
+    stages(0) := s0
+    for (i <- 1 to L) {
+      stages(i).valid := stages(i - 1).valid
+      stages(i).bits := lookup(i, stages(i - 1).bits)
+    }
+    val last = stages(L)
+    when(last.valid) {
+      val b = last.bits
+      val remove = b.value >= 0.S && b.closed && b.ptr < cap.U
+      when(!b.virt) {
+        outReg.valid := true.B
+        outReg.bits.data := Mux(remove, -1.S, b.value)
+        outReg.bits.sof := b.sof; outReg.bits.eol := b.eol; outReg.bits.eof := b.eof
+        outLast := b.lastRow
+      }
+      when(b.virt || b.eol) { dDone := dDone + 1.U }
+    }
+  }
+}
+
+object PostProcessSpeckle {
+  def delayRows(p: ElasParams): Int = p.speckleWindowRows + 4
+  def mapRows(p: ElasParams): Int = p.speckleWindowRows + 2
+  def idBits(p: ElasParams): Int = log2Ceil(p.maxWidth)
+  def sizeBits(p: ElasParams): Int = log2Ceil(p.speckleSize + 1) max 1
+  /** Rows of latency (input row -> output row) in the steady state. */
+  def latencyRows(p: ElasParams): Int = p.speckleWindowRows + 2
+
+  def memorySummary(p: ElasParams): Seq[MemoryUse] = {
+    val (w, idW, sW) = (p.maxWidth, idBits(p), sizeBits(p))
+    Seq(
+      MemoryUse("Speckle", "delay", delayRows(p) * w, p.dispBits + 1 + idW, s"(L + 4) rows x maxWidth, value + node id"),
+      MemoryUse("Speckle", "fmaps", mapRows(p) * w, 1 + math.max(idW, sW), "(L + 2) rows x maxWidth forward maps"),
+      MemoryUse("Speckle", "P/K/R", (2 + 3 + 2) * w, idW, "merge parents (2 rows), flat classes (3), class -> node (2)"),
+      MemoryUse("Speckle", "S", 3 * w, sW, "saturating segment sizes, 3 rows"),
+      MemoryUse("Speckle", "Rvalid", 2, w, "touched-class flags (registers)"))
+  }
+}
