@@ -9,8 +9,9 @@ import chisel3.util._
   *   [[PostProcessSpeckle]] (small segments, L = speckleWindowRows) -> [[PostRowGaps]] (x16, row gaps, corners)
   *   -> [[PostColumnGaps]] (G = min(ipolGapWidth, ipolColumnWindow) rows) -> [[PostMean]] horizontal + vertical
   *   (filterAdaptiveMean) and/or [[PostMedian]] horizontal + vertical (filterMedian).
-  * Latency in rows (steady state): (L + 2) + 1 + (G + 1) + 1 + 4, i.e. (L - 1) + G + 3 of the algorithm's
-  * look-ahead plus the rows each step needs to see its own row complete (+ 5): see [[PostProcess.latencyRows]].
+  * Latency in rows (steady state): (L + 2) + 1 + G + 1 + 3 = (L - 1) + G + 3 of the algorithm's look-ahead plus 5:
+  * speckle's forward maps lag one row and its flattening one more, and the horizontal steps (row gaps, the first
+  * pass of mean / median) each need their row complete. See [[PostProcess.latencyRows]].
   */
 class PostProcess(p: ElasParams) extends Module {
   private val vW = p.dispBits + 1
@@ -59,10 +60,12 @@ class PostProcess(p: ElasParams) extends Module {
 
 object PostProcess {
   def columnWindow(p: ElasParams): Int = math.min(p.ipolGapWidth, p.ipolColumnWindow)
-  /** Rows from an input row to the same output row, steady state (each RowRing step adds below + 1 rows). */
+  /** Rows from an input row to the same output row, steady state: speckle L + 2, then each RowRing step its `below`
+    * rows (vertical steps start row v while row v + below arrives) or 1 row (horizontal steps need their row whole).
+    */
   def latencyRows(p: ElasParams): Int =
-    PostProcessSpeckle.latencyRows(p) + 1 + (columnWindow(p) + 1) +
-      (if (p.filterAdaptiveMean) 1 + 4 else 0) + (if (p.filterMedian) 1 + 4 else 0)
+    PostProcessSpeckle.latencyRows(p) + 1 + columnWindow(p) +
+      (if (p.filterAdaptiveMean) 1 + 3 else 0) + (if (p.filterMedian) 1 + 3 else 0)
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = {
     val w = p.maxWidth

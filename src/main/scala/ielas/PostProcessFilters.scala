@@ -15,8 +15,8 @@ class PostBeat(bits: Int) extends Bundle {
 }
 
 /** Row ring shared by the post steps after speckle: B = above + below + 2 row slots of maxWidth words, one memory
-  * per slot. The input writes rows in order; output row v is read once rows v .. v + below have arrived (or the
-  * frame's last row among them). The input stalls only when the slot it needs still holds a row the window reads.
+  * per slot. The input writes rows in order; output pixel (v, u) is read once rows v .. v + below - 1 have arrived
+  * and row v + below up to column u (or the frame's last row is among them); with below = 0, once row v is complete. The input stalls only when the slot it needs still holds a row the window reads.
   * Build it inside a Module; `word` is what a slot stores per pixel.
   */
 class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: DecoupledIO[PostBeat], inWord: UInt) {
@@ -68,8 +68,12 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   val outSlot: UInt = slotOf(outSeq)
   private def complete(k: Int): Bool = seqGe(inSeq, outSeq + (k + 1).U)
   private def lastAt(k: Int): Bool = metaLast(slotOf(outSeq + k.U))
+  // Row v + below may still be arriving: column u of row v only needs column u of that row (vertical windows and
+  // the column pass's markers, which are written while that column is taken).
+  private val early: Bool = if (below == 0) false.B
+    else (0 until below).map(k => complete(k) && !lastAt(k)).reduce(_ && _) && inSeq === outSeq + below.U && inCol > outCol
   val rowReady: Bool = complete(0) && (if (below == 0) true.B
-    else complete(below) || (0 until below).map(k => complete(k) && lastAt(k)).reduce(_ || _))
+    else complete(below) || early || (0 until below).map(k => complete(k) && lastAt(k)).reduce(_ || _))
   val v: UInt = metaRow(outSlot)
   val width: UInt = metaW(outSlot)
   val isLast: Bool = metaLast(outSlot)
@@ -84,7 +88,7 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
     val exists =
       if (k < 0) v >= (-k).U
       else if (k == 0) true.B
-      else (0 until k).map(j => !lastAt(j)).reduce(_ && _) && complete(k)
+      else (0 until k).map(j => !lastAt(j)).reduce(_ && _) && (complete(k) || inSeq === outSeq + k.U && inCol > outCol)
     (word, exists)
   }
   /** Row v at column c. */
