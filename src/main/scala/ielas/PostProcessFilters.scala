@@ -52,9 +52,9 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   val extraCol: UInt = WireDefault(0.U(p.colBits.W))
   val extraWord: UInt = WireDefault(0.U(wordBits.W))
   val writeWord: UInt = WireDefault(inWord)
-  for ((m, s) <- mems.zipWithIndex) {
-    when(in.fire && inSlot === s.U) { m.write(col, writeWord) }
-      .elsewhen(extraWrite && extraSlot === s.U) { m.write(extraCol, extraWord) }
+  for ((m, s) <- mems.zipWithIndex) { // one write port per slot: the current row, or a marker into an earlier row
+    val here = in.fire && inSlot === s.U
+    when(here || extraWrite && extraSlot === s.U) { m.write(Mux(here, col, extraCol), Mux(here, writeWord, extraWord)) }
   }
   when(in.fire) {
     metaRow(inSlot) := row
