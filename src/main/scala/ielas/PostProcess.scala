@@ -9,8 +9,9 @@ import chisel3.util._
   *   [[PostProcessSpeckle]] (small segments, L = speckleWindowRows) -> [[PostRowGaps]] (x16, row gaps, corners)
   *   -> [[PostColumnGaps]] (G = min(ipolGapWidth, ipolColumnWindow) rows) -> [[PostMean]] horizontal + vertical
   *   (filterAdaptiveMean) and/or [[PostMedian]] horizontal + vertical (filterMedian).
-  * Latency in rows (steady state): (L + 2) + 1 + (G + 1) + 1 + 4, i.e. (L - 1) + G + 3 of the algorithm's
-  * look-ahead plus the rows each step needs to see its own row complete (+ 5): see [[PostProcess.latencyRows]].
+  * Latency in rows (steady state): (L + 2) + 1 + G + 3 = (L - 1) + G + 3 of the algorithm's look-ahead plus 4:
+  * speckle's forward maps lag one row and its flattening one more (+ 3 over L - 1), and the row gap step needs its
+  * row complete (+ 1); the first mean / median pass starts 4 columns behind its input. See [[PostProcess.latencyRows]].
   */
 class PostProcess(p: ElasParams) extends Module {
   private val vW = p.dispBits + 1
@@ -33,6 +34,7 @@ class PostProcess(p: ElasParams) extends Module {
   rows.io.in.bits.eol := speckle.io.out.bits.eol
   rows.io.in.bits.eof := speckle.io.out.bits.eof
   rows.io.in.bits.lastRow := speckle.io.outLastRow
+  rows.io.in.bits.cols := speckle.io.outWidth
 
   val cols = Module(new PostColumnGaps(p))
   cols.io.in <> rows.io.out
@@ -59,10 +61,13 @@ class PostProcess(p: ElasParams) extends Module {
 
 object PostProcess {
   def columnWindow(p: ElasParams): Int = math.min(p.ipolGapWidth, p.ipolColumnWindow)
-  /** Rows from an input row to the same output row, steady state (each RowRing step adds below + 1 rows). */
+  /** Rows from an input row to the same output row, steady state: speckle L + 2, then each RowRing step its `below`
+    * rows (vertical steps start row v while row v + below arrives), 1 row for the row gaps (the row whole) and ~0 for
+    * the first mean / median pass (4 columns behind its input).
+    */
   def latencyRows(p: ElasParams): Int =
-    PostProcessSpeckle.latencyRows(p) + 1 + (columnWindow(p) + 1) +
-      (if (p.filterAdaptiveMean) 1 + 4 else 0) + (if (p.filterMedian) 1 + 4 else 0)
+    PostProcessSpeckle.latencyRows(p) + 1 + columnWindow(p) + (if (p.filterAdaptiveMean) 3 else 0) +
+      (if (p.filterMedian) 3 else 0)
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = {
     val w = p.maxWidth

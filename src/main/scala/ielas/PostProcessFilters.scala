@@ -12,14 +12,18 @@ class PostBeat(bits: Int) extends Bundle {
   val eol = Bool()
   val eof = Bool()
   val lastRow = Bool()
+  /** The frame width (on every pixel, so a step can start a row before its end). */
+  val cols = UInt(14.W)
 }
 
 /** Row ring shared by the post steps after speckle: B = above + below + 2 row slots of maxWidth words, one memory
-  * per slot. The input writes rows in order; output row v is read once rows v .. v + below have arrived (or the
-  * frame's last row among them). The input stalls only when the slot it needs still holds a row the window reads.
+  * per slot. The input writes rows in order; output pixel (v, u) is read once rows v .. v + below - 1 have arrived
+  * and row v + below up to column u (or the frame's last row is among them); with below = 0, once row v is complete
+  * or, for a step that reads only `ahead` columns ahead, once column u + ahead of row v has arrived. The input stalls only when the slot it needs still holds a row the window reads.
   * Build it inside a Module; `word` is what a slot stores per pixel.
   */
-class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: DecoupledIO[PostBeat], inWord: UInt) {
+class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: DecoupledIO[PostBeat], inWord: UInt,
+    ahead: Int = -1) {
   val B: Int = above + below + 2
   private val W = p.maxWidth
   private val seqW = 16
@@ -48,16 +52,16 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   val extraCol: UInt = WireDefault(0.U(p.colBits.W))
   val extraWord: UInt = WireDefault(0.U(wordBits.W))
   val writeWord: UInt = WireDefault(inWord)
-  for ((m, s) <- mems.zipWithIndex) {
-    when(in.fire && inSlot === s.U) { m.write(col, writeWord) }
-      .elsewhen(extraWrite && extraSlot === s.U) { m.write(extraCol, extraWord) }
+  for ((m, s) <- mems.zipWithIndex) { // one write port per slot: the current row, or a marker into an earlier row
+    val here = in.fire && inSlot === s.U
+    when(here || extraWrite && extraSlot === s.U) { m.write(Mux(here, col, extraCol), Mux(here, writeWord, extraWord)) }
   }
   when(in.fire) {
     metaRow(inSlot) := row
     metaLast(inSlot) := in.bits.lastRow
+    metaW(inSlot) := in.bits.cols
     inCol := col + 1.U
     when(in.bits.eol) {
-      metaW(inSlot) := col + 1.U
       inCol := 0.U
       inSeq := inSeq + 1.U
       inRow := Mux(in.bits.lastRow, 0.U, row + 1.U)
@@ -68,8 +72,14 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   val outSlot: UInt = slotOf(outSeq)
   private def complete(k: Int): Bool = seqGe(inSeq, outSeq + (k + 1).U)
   private def lastAt(k: Int): Bool = metaLast(slotOf(outSeq + k.U))
-  val rowReady: Bool = complete(0) && (if (below == 0) true.B
-    else complete(below) || (0 until below).map(k => complete(k) && lastAt(k)).reduce(_ || _))
+  // Row v + below may still be arriving: column u of row v only needs column u of that row (vertical windows and
+  // the column pass's markers, which are written while that column is taken).
+  private val early: Bool = if (below == 0) false.B
+    else (0 until below).map(k => complete(k) && !lastAt(k)).reduce(_ && _) && inSeq === outSeq + below.U && inCol > outCol
+  // With below = 0 and ahead >= 0, pixel u of row v needs only columns up to u + ahead of that row.
+  private val earlyRow: Bool = if (ahead < 0) false.B else inSeq === outSeq && inCol > outCol +& ahead.U
+  val rowReady: Bool = if (below == 0) complete(0) || earlyRow
+    else complete(0) && (complete(below) || early || (0 until below).map(k => complete(k) && lastAt(k)).reduce(_ || _))
   val v: UInt = metaRow(outSlot)
   val width: UInt = metaW(outSlot)
   val isLast: Bool = metaLast(outSlot)
@@ -84,7 +94,7 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
     val exists =
       if (k < 0) v >= (-k).U
       else if (k == 0) true.B
-      else (0 until k).map(j => !lastAt(j)).reduce(_ && _) && complete(k)
+      else (0 until k).map(j => !lastAt(j)).reduce(_ && _) && (complete(k) || inSeq === outSeq + k.U && inCol > outCol)
     (word, exists)
   }
   /** Row v at column c. */
@@ -109,8 +119,9 @@ object PostFilters {
     out.bits := reg.bits
     val canLoad: Bool = !reg.valid || out.ready
     when(out.fire) { reg.valid := false.B }
-    def load(data: SInt, sof: Bool, eol: Bool, eof: Bool, lastRow: Bool): Unit = {
+    def load(data: SInt, sof: Bool, eol: Bool, eof: Bool, lastRow: Bool, width: UInt): Unit = {
       reg.valid := true.B
+      reg.bits.cols := width
       reg.bits.data := data; reg.bits.sof := sof; reg.bits.eol := eol; reg.bits.eof := eof; reg.bits.lastRow := lastRow
     }
   }
@@ -177,7 +188,7 @@ class PostRowGaps(p: ElasParams) extends Module {
   val value = Mux(c >= 0.S, x16(c), fill)
   val go = ring.rowReady && o.canLoad
   when(go) {
-    o.load(value, ring.v === 0.U && u === 0.U, u === ring.width - 1.U, u === ring.width - 1.U && ring.isLast, ring.isLast)
+    o.load(value, ring.v === 0.U && u === 0.U, u === ring.width - 1.U, u === ring.width - 1.U && ring.isLast, ring.isLast, ring.width)
     when(c >= 0.S) { outAny := true.B; outPrevPos := u; outPrevVal := c }.elsewhen(u === 0.U) { outAny := false.B }
     ring.advanceOut()
   }
@@ -249,7 +260,7 @@ class PostColumnGaps(p: ElasParams) extends Module {
   val value = Mux(wMark, wFill, Mux(aOn, a(15, 0).asSInt, wValue))
   val go = ring.rowReady && o.canLoad
   when(go) {
-    o.load(value, ring.v === 0.U && ou === 0.U, ou === ring.width - 1.U, ou === ring.width - 1.U && ring.isLast, ring.isLast)
+    o.load(value, ring.v === 0.U && ou === 0.U, ou === ring.width - 1.U, ou === ring.width - 1.U && ring.isLast, ring.isLast, ring.width)
     activeMem.write(ou, Mux(wMark, Cat(true.B, wEnd, wFill.asUInt), Mux(ring.v === 0.U, 0.U, a)))
     ring.advanceOut()
   }
@@ -264,7 +275,8 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
     val in = Flipped(Decoupled(new PostBeat(16)))
     val out = Decoupled(new PostBeat(16))
   })
-  val ring = new RowRing(p, 16, if (vertical) 4 else 0, if (vertical) 3 else 0, io.in, io.in.bits.data.asUInt)
+  val ring = new RowRing(p, 16, if (vertical) 4 else 0, if (vertical) 3 else 0, io.in, io.in.bits.data.asUInt,
+    ahead = if (vertical) -1 else 3)
   val o = new PostFilters.OutReg(16, io.out)
   val u = ring.outCol
   val (taps, inRange) =
@@ -290,7 +302,7 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
   val value = Mux(inRange && c >= 0.S, mean(15, 0).asSInt, c)
   val go = ring.rowReady && o.canLoad
   when(go) {
-    o.load(value, ring.v === 0.U && u === 0.U, u === ring.width - 1.U, u === ring.width - 1.U && ring.isLast, ring.isLast)
+    o.load(value, ring.v === 0.U && u === 0.U, u === ring.width - 1.U, u === ring.width - 1.U && ring.isLast, ring.isLast, ring.width)
     ring.advanceOut()
   }
 }
@@ -305,7 +317,8 @@ class PostMedian(p: ElasParams, vertical: Boolean) extends Module {
     val in = Flipped(Decoupled(new PostBeat(inBits)))
     val out = Decoupled(new PostBeat(if (vertical) 16 else 17))
   })
-  val ring = new RowRing(p, inBits, if (vertical) 3 else 0, if (vertical) 3 else 0, io.in, io.in.bits.data.asUInt)
+  val ring = new RowRing(p, inBits, if (vertical) 3 else 0, if (vertical) 3 else 0, io.in, io.in.bits.data.asUInt,
+    ahead = if (vertical) -1 else 3)
   val o = new PostFilters.OutReg(if (vertical) 16 else 17, io.out)
   val u = ring.outCol
   val (taps, inRange, centreValid, centre) =
@@ -325,7 +338,7 @@ class PostMedian(p: ElasParams, vertical: Boolean) extends Module {
   val go = ring.rowReady && o.canLoad
   when(go) {
     val data = if (vertical) value else Cat(centreValid, value.asUInt(15, 0)).asSInt
-    o.load(data, ring.v === 0.U && u === 0.U, u === ring.width - 1.U, u === ring.width - 1.U && ring.isLast, ring.isLast)
+    o.load(data, ring.v === 0.U && u === 0.U, u === ring.width - 1.U, u === ring.width - 1.U && ring.isLast, ring.isLast, ring.width)
     ring.advanceOut()
   }
 }

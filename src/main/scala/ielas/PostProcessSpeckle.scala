@@ -31,7 +31,8 @@ import chisel3.util._
   *   delay line   (L + 4) rows x W x (dispBits + 1 + idW)
   *   F maps       (L + 2) rows x W x (1 + max(idW, sW)), one memory per row, 2 read ports
   *   P, R         2 rows x W x idW each;  K, S  3 rows x W x idW / sW;  R valid flags 2 x W bits (registers)
-  * Latency: row v leaves once row v + L + 1 is being labelled, i.e. about (L + 1) rows plus L + 3 clocks.
+  * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
+  * about W nodes), plus L + 3 clocks of chain; [[PostProcessSpeckle.latencyRows]] = L + 2 bounds it.
   * The memories are combinational-read (LUT RAM).
   */
 class PostProcessSpeckle(p: ElasParams) extends Module {
@@ -54,6 +55,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val out = Decoupled(new Framed(SInt(vW.W)))
     /** With io.out: the pixel lies in the frame's last row. */
     val outLastRow = Output(Bool())
+    /** With io.out: the frame width. */
+    val outWidth = Output(UInt(p.colBits.W))
   })
 
   private def satAdd(a: UInt, b: UInt): UInt = { val s = a +& b; Mux(s >= cap.U, cap.U, s)(sW - 1, 0) }
@@ -246,12 +249,15 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val ptr = UInt(fW.W)
     val n = UInt(log2Ceil(L + 2).W) // chain length for this row
     val sof = Bool(); val eol = Bool(); val eof = Bool(); val lastRow = Bool()
+    val cols = UInt(p.colBits.W)
     val virt = Bool()
   }
   val stages = Seq.fill(L + 1)(RegInit(0.U.asTypeOf(Valid(new Beat))))
   val outReg = RegInit(0.U.asTypeOf(Valid(new Framed(SInt(vW.W)))))
   val outLast = RegInit(false.B)
+  val outWidth = RegInit(0.U(p.colBits.W))
   io.outLastRow := outLast
+  io.outWidth := outWidth
   val advance = !outReg.valid || io.out.ready
   io.out.valid := outReg.valid
   io.out.bits := outReg.bits
@@ -277,6 +283,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   s0.bits.eol := !dVirt && dCol === dWd - 1.U
   s0.bits.eof := !dVirt && dCol === dWd - 1.U && dRowV === dH - 1.U
   s0.bits.lastRow := dRowV === dH - 1.U
+  s0.bits.cols := dWd
   s0.bits.virt := dVirt
   when(issue) {
     when(dVirt || dCol === dWd - 1.U) { dCol := 0.U; dNext := dNext + 1.U }.otherwise { dCol := dCol + 1.U }
@@ -315,6 +322,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
         outReg.bits.data := Mux(remove, -1.S, b.value)
         outReg.bits.sof := b.sof; outReg.bits.eol := b.eol; outReg.bits.eof := b.eof
         outLast := b.lastRow
+        outWidth := b.cols
       }
       when(b.virt || b.eol) { dDone := dDone + 1.U }
     }

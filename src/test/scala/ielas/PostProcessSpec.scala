@@ -319,6 +319,32 @@ object PostProcessSpec {
         Traffic(0.1, 0.1), rnd, b2b.check, bound(g.w, g.h, same.size), "back to back")
       println(s"  ${p.name}: ${b2b.board.report}")
       assert(b2b.board.ok, b2b.board.report)
+      // back to back with the frame size changing at every start of frame
+      val mixed = Seq(gold.find(_.w == 117).get, gold.find(_.w == 32).get, gold.find(_.c.label.startsWith("Middlebury cones")).get, g)
+      val starts = mixed.scanLeft(0L)((acc, f) => acc + f.w.toLong * f.h)
+      val mixedBoard = new Scoreboard(s"post back to back, sizes ${mixed.map(f => s"${f.w}x${f.h}").mkString(" ")}")
+      val beats = mixed.iterator.flatMap { f =>
+        Iterator.range(0, f.w * f.h).map(i => (f.lr(i.toLong), i == 0, i % f.w == f.w - 1, i == f.w * f.h - 1, f.w, f.h))
+      }
+      run[Framed[SInt], Framed[SInt], (Int, Boolean, Boolean, Boolean, Int, Int), OutBeat](dut.clock, dut.io.in, beats,
+        (bits, b) => {
+          if (b._2) { poke(dut.io.frameWidth, b._5); poke(dut.io.frameHeight, b._6) } // the size of the frame at its sof
+          poke(bits.data, b._1); poke(bits.sof, b._2); poke(bits.eol, b._3); poke(bits.eof, b._4)
+        },
+        dut.io.out, starts.last, o => OutBeat(peek(o.data).toInt, peek(o.sof), peek(o.eol), peek(o.eof)),
+        (i, b) => {
+          val k = starts.lastIndexWhere(_ <= i)
+          val f = mixed(k)
+          val pix = (i - starts(k)).toInt
+          val (x, y) = (pix % f.w, pix / f.w)
+          val at = s"frame $k ${f.w}x${f.h} (x=$x, y=$y)"
+          mixedBoard.check(s"$at value", f.disp(pix.toLong), b.value)
+          mixedBoard.check(s"$at sof", if (pix == 0) 1 else 0, if (b.sof) 1 else 0)
+          mixedBoard.check(s"$at eol", if (x == f.w - 1) 1 else 0, if (b.eol) 1 else 0)
+          mixedBoard.check(s"$at eof", if (pix == f.w * f.h - 1) 1 else 0, if (b.eof) 1 else 0)
+        }, Traffic(0.2, 0.2), rnd, bound(128, 64, mixed.size), "back to back, mixed sizes")
+      println(s"  ${p.name}: ${mixedBoard.report}")
+      assert(mixedBoard.ok, mixedBoard.report)
     }
   }
 
