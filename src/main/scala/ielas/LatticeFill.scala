@@ -32,9 +32,9 @@ import chisel3.util._
   *   250 x 20 = 5,000 bits; r7: lists 4 x 250 x 16 = 16,000 bits, row above 250 x 8 = 2,000 bits.)
   *   Vertical pairs read supports only (never filled values), so no filled row is kept.
   *
-  * Schedule: 2 cycles per node (memory read, decide and emit) plus, r7 only, dispBits + 1 cycles per interpolated
-  * pair of supports, so a row takes at most [[LatticeFill.rowCycles]] = 2 Lw + ceil(Lw / 2) (dispBits + 1) + 2
-  * cycles (kitti: 1,627) against step x W = 6,210 pixel clocks per lattice row at 1 pixel per clock. The input
+  * Schedule: 3 cycles per node (memory read, decide, emit) plus, r7 only, dispBits + 1 cycles per interpolated pair
+  * of supports, so a row takes at most [[LatticeFill.rowCycles]] = 3 Lw + ceil(Lw / 2) (dispBits + 1) + 2 cycles
+  * (kitti r7: 1,877, paper: 752) against step x W = 6,210 pixel clocks per lattice row at 1 pixel per clock. The input
   * stalls only when the slot of the row to be written is still needed (or a new frame arrives while the previous
   * one is still being filled); the output register stalls the walk. Any gaps are fine.
   */
@@ -139,7 +139,7 @@ class LatticeFill(p: ElasParams) extends Module {
   }
 
   // ---- the walk over the rows ----
-  val sIdle :: sRowWait :: sRead :: sNode :: sDiv :: Nil = Enum(5)
+  val sIdle :: sRowWait :: sRead :: sNode :: sDiv :: sEmit :: Nil = Enum(6)
   val state = RegInit(sIdle)
   val procSlot = RegInit(0.U(slotBits.W)) // slot of row procJ
   val srcSlot = Reg(UInt(slotBits.W)) //     slot whose list fills the row (r7 row 0: row 1 or 2)
@@ -176,6 +176,8 @@ class LatticeFill(p: ElasParams) extends Module {
   val hi = Mux(aVal < bVal, bVal, aVal)
 
   val value = Wire(UInt(dBits.W))
+  val here = Wire(Bool()) //         the node holds a support ...
+  val hereVal = Wire(UInt(dBits.W)) // ... of this value
   val doEmit = WireDefault(false.B)
   val pairStep = WireDefault(false.B) // r7: an interpolated node advances the pair's (q, r)
   val eol = i === lw - 1.U
@@ -186,7 +188,6 @@ class LatticeFill(p: ElasParams) extends Module {
     val eps = p.fillEpsilon
     val above = SyncReadMem(colsMax, UInt(dBits.W)) // the filled row above; node i read before it is rewritten
     val up = above.read(col(i))
-    val jump = Mux(useAbove && absDiff(hi, up) < absDiff(lo, up), hi, lo) // a tie goes to lo
     val near = absDiff(aVal, bVal) <= eps.U
 
     // The pair's division: 2D = 2G qd + rd with 0 <= rd < 2G (D = bVal - aVal, G = bIdx - aIdx), then per node
@@ -208,9 +209,29 @@ class LatticeFill(p: ElasParams) extends Module {
     val qNext = segQ + qd + carry.asUInt.zext
     val rNext = Mux(carry, rSum - (g << 1), rSum)
 
-    value := Mux(zeros, 0.U, Mux(!useList, up,
-      Mux(bHere || !aValid, bVal, Mux(!kIn, aVal, Mux(near, qNext.asUInt(dBits - 1, 0), jump)))))
     val needDiv = useList && !bHere && both && near && !segReady
+
+    // decide (sNode) into registers, emit (sEmit): the memory reads and the jump / pair arithmetic sit in
+    // different cycles (3 cycles per node)
+    val selHere = Reg(Bool()) //  a support: selVal
+    val selOne = Reg(Bool()) //   a copy, row 0 all zero, or one side only: selVal
+    val selPair = Reg(Bool()) //  interpolated: (q, r) of the pair
+    val selVal = Reg(UInt(dBits.W))
+    val rLo = Reg(UInt(dBits.W))
+    val rHi = Reg(UInt(dBits.W))
+    val rUp = Reg(UInt(dBits.W))
+    when(state === sNode && !needDiv) {
+      selHere := useList && bHere
+      selOne := zeros || !useList || bHere || !aValid || !kIn
+      selPair := useList && !bHere && both && near
+      selVal := Mux(zeros, 0.U, Mux(!useList, up, Mux(bHere || !aValid, bVal, aVal)))
+      rLo := lo
+      rHi := hi
+      rUp := up
+      state := sEmit
+    }
+    val jump = Mux(useAbove && absDiff(rHi, rUp) < absDiff(rLo, rUp), rHi, rLo) // a tie goes to lo
+    value := Mux(selOne, selVal, Mux(selPair, qNext.asUInt(dBits - 1, 0), jump))
 
     when(state === sNode && needDiv) {
       val gNew = bIdx - aIdx
@@ -242,11 +263,13 @@ class LatticeFill(p: ElasParams) extends Module {
     lateWrite(above, doEmit, col(i), value)
     when(doEmit) {
       when(pairStep) { segQ := qNext; segR := rNext }
-      when(bHere) { segReady := false.B }
+      when(selHere) { segReady := false.B }
     }
     when(state === sRowWait) { segReady := false.B }
-    pairStep := useList && !bHere && both && near
-    doEmit := state === sNode && !needDiv && outFree
+    pairStep := selPair
+    doEmit := state === sEmit && outFree
+    here := selHere
+    hereVal := selVal
   } else {
     // ---- paper ----
     val sDelta = p.sDelta.U
@@ -282,12 +305,26 @@ class LatticeFill(p: ElasParams) extends Module {
     val bottom = PriorityMux(below.map(_._1) :+ true.B, below.map(_._2) :+ 0.U(dBits.W))
     val vertical = topOk && bottomOk
 
-    value := Mux(bHere, bVal, Mux(horizontal, pair(aVal, bVal), Mux(vertical, pair(laVal, bottom), p.fillC.U)))
-    doEmit := state === sNode && outFree
+    // decide (sNode) into registers, then emit (sEmit): the memory reads and the pair arithmetic sit in different
+    // cycles (3 cycles per node, far below step^2)
+    val selSup = Reg(Bool())
+    val selPair = Reg(Bool())
+    val pa = Reg(UInt(dBits.W))
+    val pb = Reg(UInt(dBits.W))
+    when(state === sNode) {
+      selSup := bHere
+      selPair := horizontal || vertical
+      pa := Mux(bHere || horizontal, Mux(bHere, bVal, aVal), laVal)
+      pb := Mux(horizontal, bVal, bottom)
+      state := sEmit
+    }
+    value := Mux(selSup, pa, Mux(selPair, pair(pa, pb), p.fillC.U))
+    here := selSup
+    hereVal := pa
+    doEmit := state === sEmit && outFree
 
-    when(doEmit && bHere) { aU := u }
-    lateWrite(lastAbove, doEmit && (procJ === 0.U || bHere), col(i), Cat(bHere, v, bVal)) // row 0 clears the previous frame
-    // case counters for waveforms and the spec's coverage report live in the test (from the golden input)
+    when(doEmit && selSup) { aU := u }
+    lateWrite(lastAbove, doEmit && (procJ === 0.U || selSup), col(i), Cat(selSup, v, pa)) // row 0 clears the previous frame
   }
 
   // ---- row sequencing ----
@@ -319,26 +356,24 @@ class LatticeFill(p: ElasParams) extends Module {
       }
     }
     is(sRead) { state := sNode } // list entry k and column i are read this cycle
-    is(sNode) {
-      when(doEmit) {
-        outValid := true.B
-        outBits.data := value.zext
-        outBits.sof := i === 0.U && procJ === 0.U
-        outBits.eol := eol
-        outBits.eof := eof
-        when(bHere) { aValid := true.B; aIdx := i; aVal := bVal; k := k + 1.U }
-        i := i + 1.U
-        uRaw := uRaw + step.U
-        state := sRead
-        when(eol) {
-          procJ := procJ + 1.U
-          procSlot := nextSlot(procSlot)
-          vRaw := vRaw + step.U
-          state := sRowWait
-        }
-        when(eof) { state := sIdle; procBusy := false.B }
-      }
+  }
+  when(doEmit) { // in sEmit
+    outValid := true.B
+    outBits.data := value.zext
+    outBits.sof := i === 0.U && procJ === 0.U
+    outBits.eol := eol
+    outBits.eof := eof
+    when(here) { aValid := true.B; aIdx := i; aVal := hereVal; k := k + 1.U }
+    i := i + 1.U
+    uRaw := uRaw + step.U
+    state := sRead
+    when(eol) {
+      procJ := procJ + 1.U
+      procSlot := nextSlot(procSlot)
+      vRaw := vRaw + step.U
+      state := sRowWait
     }
+    when(eof) { state := sIdle; procBusy := false.B }
   }
 }
 
@@ -357,8 +392,8 @@ object LatticeFill {
 
   /** Worst-case cycles for one lattice row of `lw` nodes (r7: every other node a support, each pair divided). */
   def rowCycles(p: ElasParams, lw: Int): Int = p.fillRule match {
-    case FillRule.R7 => 2 * lw + (lw + 1) / 2 * (p.dispBits + 1) + 2
-    case FillRule.Paper => 2 * lw + 2
+    case FillRule.R7 => 3 * lw + (lw + 1) / 2 * (p.dispBits + 1) + 2
+    case FillRule.Paper => 3 * lw + 2
   }
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = {
