@@ -32,9 +32,9 @@ import chisel3.util._
   *   250 x 20 = 5,000 bits; r7: lists 4 x 250 x 16 = 16,000 bits, row above 250 x 8 = 2,000 bits.)
   *   Vertical pairs read supports only (never filled values), so no filled row is kept.
   *
-  * Schedule: 2 cycles per node (memory read, decide and emit) plus, r7 only, dispBits + 1 cycles per interpolated
-  * pair of supports, so a row takes at most [[LatticeFill.rowCycles]] = 2 Lw + ceil(Lw / 2) (dispBits + 1) + 2
-  * cycles (kitti: 1,627) against step x W = 6,210 pixel clocks per lattice row at 1 pixel per clock. The input
+  * Schedule: 3 cycles per node (memory read, decide, emit) plus, r7 only, dispBits + 1 cycles per interpolated pair
+  * of supports, so a row takes at most [[LatticeFill.rowCycles]] = 3 Lw + ceil(Lw / 2) (dispBits + 1) + 2 cycles
+  * (kitti r7: 1,877, paper: 752) against step x W = 6,210 pixel clocks per lattice row at 1 pixel per clock. The input
   * stalls only when the slot of the row to be written is still needed (or a new frame arrives while the previous
   * one is still being filled); the output register stalls the walk. Any gaps are fine.
   */
@@ -70,9 +70,6 @@ class LatticeFill(p: ElasParams) extends Module {
     val d = RegEnable(data, en)
     when(e) { mem.write(a, d) }
   }
-  /** x * step as shifted adds (step is a small constant): Yosys would otherwise spend a DSP on it. */
-  def timesStep(x: UInt): UInt =
-    (0 until log2Ceil(step + 1)).filter(b => ((step >> b) & 1) == 1).map(b => (x << b).pad(coordW)).reduce(_ +& _)
 
   // ---- input side: each row's supports into its slot's list ----
   val inBusy = RegInit(false.B) //    lattice values of a frame are still expected
@@ -84,8 +81,8 @@ class LatticeFill(p: ElasParams) extends Module {
   val inSlot = RegInit(0.U(slotBits.W))
   val counts = Reg(Vec(slots, UInt(idxW.W)))
   val lw = RegInit(0.U(idxW.W))
-  val width = RegInit(0.U(p.colBits.W))
-  val height = RegInit(0.U(p.rowBits.W))
+  val wLast = RegInit(0.U(p.colBits.W)) // W - 1
+  val hLast = RegInit(0.U(p.rowBits.W)) // H - 1
   val procJ = RegInit(0.U(rowW.W))
 
   val start = io.in.valid && io.in.bits.sof && !inBusy && !procBusy
@@ -99,10 +96,9 @@ class LatticeFill(p: ElasParams) extends Module {
   val isSupport = io.in.bits.data >= 0.S
 
   /** List address of entry `k` of slot `s` (k < colsMax). */
-  def listAddr(s: UInt, k: UInt): UInt = {
-    val base = VecInit((0 until slots).map(x => (x * colsMax).U(log2Ceil(slots * colsMax + 1).W)))(s)
-    (base + k)(log2Ceil(slots * colsMax) - 1, 0)
-  }
+  private val listW = log2Ceil(slots * colsMax)
+  def slotBase(s: UInt): UInt = VecInit((0 until slots).map(x => (x * colsMax).U(listW.W)))(s)
+  def listAddr(s: UInt, k: UInt): UInt = (slotBase(s) +& k)(listW - 1, 0)
   /** A column index as a row-memory address (the index is < colsMax whenever the read matters). */
   def col(x: UInt): UInt = x(log2Ceil(colsMax) - 1, 0)
   val list = SyncReadMem(slots * colsMax, UInt((idxW + dBits).W))
@@ -111,7 +107,7 @@ class LatticeFill(p: ElasParams) extends Module {
   when(start) {
     inBusy := true.B; procBusy := true.B; frameDone := false.B
     rowsIn := 0.U; inSlot := 0.U
-    width := io.frameWidth; height := io.frameHeight
+    wLast := io.frameWidth - 1.U; hLast := io.frameHeight - 1.U
   }
   when(write) {
     val cnt = writeCnt + isSupport.asUInt
@@ -131,18 +127,17 @@ class LatticeFill(p: ElasParams) extends Module {
   // ---- paper: the full values of every slot, one memory per slot (a column of the look-ahead per read) ----
   val ring = if (paper) Seq.fill(slots)(SyncReadMem(colsMax, valueType)) else Nil
   if (paper) { // as lateWrite, with one set of registers for all slots
-    val e = RegNext(write, false.B)
-    val slot = RegEnable(writeSlot, write)
+    val e = RegNext(VecInit((0 until slots).map(s => write && writeSlot === s.U)), VecInit(Seq.fill(slots)(false.B)))
     val a = RegEnable(col(writeCol), write)
     val d = RegEnable(io.in.bits.data, write)
-    for ((mem, s) <- ring.zipWithIndex) when(e && slot === s.U) { mem.write(a, d) }
+    for ((mem, s) <- ring.zipWithIndex) when(e(s)) { mem.write(a, d) }
   }
 
   // ---- the walk over the rows ----
-  val sIdle :: sRowWait :: sRead :: sNode :: sDiv :: Nil = Enum(5)
+  val sIdle :: sRowWait :: sRead :: sNode :: sDiv :: sEmit :: Nil = Enum(6)
   val state = RegInit(sIdle)
   val procSlot = RegInit(0.U(slotBits.W)) // slot of row procJ
-  val srcSlot = Reg(UInt(slotBits.W)) //     slot whose list fills the row (r7 row 0: row 1 or 2)
+  val listPtr = Reg(UInt(listW.W)) //        list address of entry k of the row's source slot (r7 row 0: row 1 or 2)
   val n = Reg(UInt(idxW.W)) //               supports in the source row
   val i = Reg(UInt(idxW.W))
   val k = Reg(UInt(idxW.W)) //               next list entry: the first support at or right of i
@@ -158,7 +153,7 @@ class LatticeFill(p: ElasParams) extends Module {
   val vRaw = Reg(UInt(coordW.W)) // procJ * step
 
   val kIn = k < n
-  val entry = list.read(listAddr(srcSlot, Mux(k < colsMax.U, k, 0.U)))
+  val entry = list.read(listPtr) // past the last entry (k = n) it reads a value that is not used
   val bIdx = entry(idxW + dBits - 1, dBits)
   val bVal = entry(dBits - 1, 0)
   val bHere = kIn && bIdx === i
@@ -176,6 +171,8 @@ class LatticeFill(p: ElasParams) extends Module {
   val hi = Mux(aVal < bVal, bVal, aVal)
 
   val value = Wire(UInt(dBits.W))
+  val here = Wire(Bool()) //         the node holds a support ...
+  val hereVal = Wire(UInt(dBits.W)) // ... of this value
   val doEmit = WireDefault(false.B)
   val pairStep = WireDefault(false.B) // r7: an interpolated node advances the pair's (q, r)
   val eol = i === lw - 1.U
@@ -186,7 +183,6 @@ class LatticeFill(p: ElasParams) extends Module {
     val eps = p.fillEpsilon
     val above = SyncReadMem(colsMax, UInt(dBits.W)) // the filled row above; node i read before it is rewritten
     val up = above.read(col(i))
-    val jump = Mux(useAbove && absDiff(hi, up) < absDiff(lo, up), hi, lo) // a tie goes to lo
     val near = absDiff(aVal, bVal) <= eps.U
 
     // The pair's division: 2D = 2G qd + rd with 0 <= rd < 2G (D = bVal - aVal, G = bIdx - aIdx), then per node
@@ -208,9 +204,29 @@ class LatticeFill(p: ElasParams) extends Module {
     val qNext = segQ + qd + carry.asUInt.zext
     val rNext = Mux(carry, rSum - (g << 1), rSum)
 
-    value := Mux(zeros, 0.U, Mux(!useList, up,
-      Mux(bHere || !aValid, bVal, Mux(!kIn, aVal, Mux(near, qNext.asUInt(dBits - 1, 0), jump)))))
     val needDiv = useList && !bHere && both && near && !segReady
+
+    // decide (sNode) into registers, emit (sEmit): the memory reads and the jump / pair arithmetic sit in
+    // different cycles (3 cycles per node)
+    val selHere = Reg(Bool()) //  a support: selVal
+    val selOne = Reg(Bool()) //   a copy, row 0 all zero, or one side only: selVal
+    val selPair = Reg(Bool()) //  interpolated: (q, r) of the pair
+    val selVal = Reg(UInt(dBits.W))
+    val rLo = Reg(UInt(dBits.W))
+    val rHi = Reg(UInt(dBits.W))
+    val rUp = Reg(UInt(dBits.W))
+    when(state === sNode && !needDiv) {
+      selHere := useList && bHere
+      selOne := zeros || !useList || bHere || !aValid || !kIn
+      selPair := useList && !bHere && both && near
+      selVal := Mux(zeros, 0.U, Mux(!useList, up, Mux(bHere || !aValid, bVal, aVal)))
+      rLo := lo
+      rHi := hi
+      rUp := up
+      state := sEmit
+    }
+    val jump = Mux(useAbove && absDiff(rHi, rUp) < absDiff(rLo, rUp), rHi, rLo) // a tie goes to lo
+    value := Mux(selOne, selVal, Mux(selPair, qNext.asUInt(dBits - 1, 0), jump))
 
     when(state === sNode && needDiv) {
       val gNew = bIdx - aIdx
@@ -242,23 +258,25 @@ class LatticeFill(p: ElasParams) extends Module {
     lateWrite(above, doEmit, col(i), value)
     when(doEmit) {
       when(pairStep) { segQ := qNext; segR := rNext }
-      when(bHere) { segReady := false.B }
+      when(selHere) { segReady := false.B }
     }
     when(state === sRowWait) { segReady := false.B }
-    pairStep := useList && !bHere && both && near
-    doEmit := state === sNode && !needDiv && outFree
+    pairStep := selPair
+    doEmit := state === sEmit && outFree
+    here := selHere
+    hereVal := selVal
   } else {
     // ---- paper ----
     val sDelta = p.sDelta.U
-    val wLast = width - 1.U
-    val hLast = height - 1.U
     def clip(x: UInt, last: UInt): UInt = Mux(x > last, last, x)
     def pair(x: UInt, y: UInt): UInt = Mux(absDiff(x, y) <= p.epsilon.U, ((x +& y +& 1.U) >> 1)(dBits - 1, 0), Mux(x < y, x, y))
 
     val aU = Reg(UInt(coordW.W))
     val u = clip(uRaw, wLast)
-    val bU = clip(timesStep(bIdx), wLast)
-    val horizontal = aValid && u - aU <= sDelta && kIn && bU - u <= sDelta
+    // b right of i within sDelta px: (b - i) step <= sDelta unless b is the last column, whose pixel column W - 1
+    // may be nearer than a step (a support left of i is never the last column, so aU = a step)
+    val bReach = Mux(bIdx === lw - 1.U, wLast - uRaw <= sDelta, bIdx - i <= reach.U)
+    val horizontal = aValid && u - aU <= sDelta && kIn && bReach
 
     // last support above in this column (valid, pixel row, value)
     val lastAbove = SyncReadMem(colsMax, UInt((1 + coordW + dBits).W))
@@ -266,28 +284,49 @@ class LatticeFill(p: ElasParams) extends Module {
     val laValid = la(coordW + dBits)
     val laV = la(coordW + dBits - 1, dBits)
     val laVal = la(dBits - 1, 0)
-    val v = clip(vRaw, hLast)
+    val v = Reg(UInt(coordW.W)) // pixel row of procJ, set at row start
     val topOk = procJ =/= 0.U && laValid && v - laV <= sDelta
 
     // nearest support below within sDelta px: offsets 1 .. R + 1 of the ring (R + 2 is never within reach, and its
     // slot may be the one being written), first hit wins
     val column = ring.map(_.read(col(i)))
-    val below = (1 to math.min(reach + 1, slots - 1)).map { o =>
+    // Whether row procJ + o exists and lies within sDelta px is fixed for the whole row (every such row is complete
+    // before the row starts): one register per offset, set at row start.
+    val offsets = 1 to math.min(reach + 1, slots - 1)
+    val rowOk = Reg(Vec(offsets.length, Bool()))
+    when(state === sRowWait) {
+      v := clip(vRaw, hLast)
+      for ((o, x) <- offsets.zipWithIndex)
+        rowOk(x) := procJ +& o.U < rowsIn && clip(vRaw +& (o * step).U, hLast) - clip(vRaw, hLast) <= sDelta
+    }
+    val below = offsets.zipWithIndex.map { case (o, x) =>
       val d = VecInit((0 until slots).map(s => column((s + o) % slots)))(procSlot) // row procJ + o
-      val exists = procJ +& o.U < rowsIn
-      val ok = exists && d >= 0.S && clip(vRaw +& (o * step).U, hLast) - v <= sDelta
-      (ok, d.asUInt(dBits - 1, 0))
+      (rowOk(x) && d >= 0.S, d.asUInt(dBits - 1, 0))
     }
     val bottomOk = below.map(_._1).reduce(_ || _)
     val bottom = PriorityMux(below.map(_._1) :+ true.B, below.map(_._2) :+ 0.U(dBits.W))
     val vertical = topOk && bottomOk
 
-    value := Mux(bHere, bVal, Mux(horizontal, pair(aVal, bVal), Mux(vertical, pair(laVal, bottom), p.fillC.U)))
-    doEmit := state === sNode && outFree
+    // decide (sNode) into registers, then emit (sEmit): the memory reads and the pair arithmetic sit in different
+    // cycles (3 cycles per node, far below step^2)
+    val selSup = Reg(Bool())
+    val selPair = Reg(Bool())
+    val pa = Reg(UInt(dBits.W))
+    val pb = Reg(UInt(dBits.W))
+    when(state === sNode) {
+      selSup := bHere
+      selPair := horizontal || vertical
+      pa := Mux(bHere || horizontal, Mux(bHere, bVal, aVal), laVal)
+      pb := Mux(horizontal, bVal, bottom)
+      state := sEmit
+    }
+    value := Mux(selSup, pa, Mux(selPair, pair(pa, pb), p.fillC.U))
+    here := selSup
+    hereVal := pa
+    doEmit := state === sEmit && outFree
 
-    when(doEmit && bHere) { aU := u }
-    lateWrite(lastAbove, doEmit && (procJ === 0.U || bHere), col(i), Cat(bHere, v, bVal)) // row 0 clears the previous frame
-    // case counters for waveforms and the spec's coverage report live in the test (from the golden input)
+    when(doEmit && selSup) { aU := u }
+    lateWrite(lastAbove, doEmit && (procJ === 0.U || selSup), col(i), Cat(selSup, v, pa)) // row 0 clears the previous frame
   }
 
   // ---- row sequencing ----
@@ -301,7 +340,7 @@ class LatticeFill(p: ElasParams) extends Module {
                   else frameDone || Mux(procJ === 0.U, rowsIn >= 3.U, rowsIn > procJ)
       when(ready) {
         i := 0.U; k := 0.U; aValid := false.B; uRaw := 0.U
-        srcSlot := procSlot
+        listPtr := slotBase(procSlot)
         n := c(procSlot)
         useList := c(procSlot) =/= 0.U || paper.B
         useAbove := procJ =/= 0.U
@@ -310,7 +349,7 @@ class LatticeFill(p: ElasParams) extends Module {
           // row 0 (never a support row): the first of rows 1..2 with a support, filled without a row above
           val one = rowsIn > 1.U && c(1) =/= 0.U
           val two = rowsIn > 2.U && c(2) =/= 0.U
-          srcSlot := Mux(one, 1.U, 2.U)
+          listPtr := Mux(one, colsMax.U, (2 * colsMax).U)
           n := Mux(one, c(1), c(2))
           useList := one || two
           zeros := !one && !two
@@ -319,26 +358,24 @@ class LatticeFill(p: ElasParams) extends Module {
       }
     }
     is(sRead) { state := sNode } // list entry k and column i are read this cycle
-    is(sNode) {
-      when(doEmit) {
-        outValid := true.B
-        outBits.data := value.zext
-        outBits.sof := i === 0.U && procJ === 0.U
-        outBits.eol := eol
-        outBits.eof := eof
-        when(bHere) { aValid := true.B; aIdx := i; aVal := bVal; k := k + 1.U }
-        i := i + 1.U
-        uRaw := uRaw + step.U
-        state := sRead
-        when(eol) {
-          procJ := procJ + 1.U
-          procSlot := nextSlot(procSlot)
-          vRaw := vRaw + step.U
-          state := sRowWait
-        }
-        when(eof) { state := sIdle; procBusy := false.B }
-      }
+  }
+  when(doEmit) { // in sEmit
+    outValid := true.B
+    outBits.data := value.zext
+    outBits.sof := i === 0.U && procJ === 0.U
+    outBits.eol := eol
+    outBits.eof := eof
+    when(here) { aValid := true.B; aIdx := i; aVal := hereVal; k := k + 1.U; listPtr := listPtr + 1.U }
+    i := i + 1.U
+    uRaw := uRaw + step.U
+    state := sRead
+    when(eol) {
+      procJ := procJ + 1.U
+      procSlot := nextSlot(procSlot)
+      vRaw := vRaw + step.U
+      state := sRowWait
     }
+    when(eof) { state := sIdle; procBusy := false.B }
   }
 }
 
@@ -357,8 +394,8 @@ object LatticeFill {
 
   /** Worst-case cycles for one lattice row of `lw` nodes (r7: every other node a support, each pair divided). */
   def rowCycles(p: ElasParams, lw: Int): Int = p.fillRule match {
-    case FillRule.R7 => 2 * lw + (lw + 1) / 2 * (p.dispBits + 1) + 2
-    case FillRule.Paper => 2 * lw + 2
+    case FillRule.R7 => 3 * lw + (lw + 1) / 2 * (p.dispBits + 1) + 2
+    case FillRule.Paper => 3 * lw + 2
   }
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = {
