@@ -3,12 +3,24 @@ package ielas
 import chisel3._
 import chisel3.util._
 
-/** The accelerator top, as built so far: pixel input -> [[Descriptor]] -> descriptor stream.
+/** The accelerator (INTERFACES.md §4): left/right pixels in, disparity*16 out, both AXI4-Stream video style.
   *
-  * Frame size check (INTERFACES.md §4): a start of frame whose frameWidth/frameHeight lie outside
-  * 32x16..maxWidth x maxHeight raises the sticky `error` bit (cleared by reset or a one-cycle `clearError`) and the
-  * whole frame is dropped up to the next start of frame. Line-length and line-count checks come with the later
-  * stages.
+  * {{{
+  *  in -> FrameGuard -> fork -+-> Descriptor -> SupportMatcher -> SupportFilter -> fork -+-> LatticeFill -> lattice queue -> Planes --+
+  *                            |                                                          +-> GridVector -> grid queue ---------------+
+  *                            +-> pixel band (bandRows x maxWidth) -> Descriptor ----------------------------------------> DenseMatcher
+  *                                                                                   DenseMatcher -> LrCheck -> PostProcess -> OutputGate -> out
+  * }}}
+  * The early path (support .. grid) runs a band of rows ahead of the late path (dense .. post). Only raw pixel pairs
+  * are delayed (16 bits per pixel); the late path recomputes the descriptors. The band must cover the early path's
+  * look-ahead, or the input would wait for the late path while the late path waits for the early one; the queues
+  * behind the early path hold what it produces ahead of the late path ([[IElas.bandRows]] etc.).
+  *
+  * Frame sizes: [[FrameGuard]] makes every frame exactly frameWidth x frameHeight (padding or dropping as needed) and
+  * records each frame's size in a [[FrameSizeTable]]; every stage reads the size of the next frame it will start, so
+  * frames of different sizes may follow one another back to back while earlier frames are still in flight.
+  * Malformed frames raise the sticky `error` (cleared by reset or `clearError`); [[OutputGate]] ends an aborted
+  * frame's output after the current output line, without end of frame.
   */
 class IElas(p: ElasParams) extends Module {
   val io = IO(new Bundle {
@@ -17,36 +29,295 @@ class IElas(p: ElasParams) extends Module {
     val frameHeight = Input(UInt(p.rowBits.W))
     val error = Output(Bool())
     val clearError = Input(Bool())
-    val out = Decoupled(new Framed(new DescriptorPair(p.descriptorBytes)))
+    val out = Decoupled(new Framed(SInt(16.W)))
   })
+  val pipeline = new Pipeline(p, Stage.Post, io.in, io.frameWidth, io.frameHeight, io.clearError)
+  io.error := pipeline.error
 
-  val descriptor = Module(new Descriptor(p))
+  val gate = Module(new OutputGate)
+  gate.io.in <> pipeline.post
+  gate.io.aborted <> Queue(pipeline.aborted, IElas.framesInFlight(p))
+  io.out <> gate.io.out
+}
 
-  val error = RegInit(false.B)
-  val dropping = RegInit(false.B) // inside a frame whose size was illegal
-  val sof = io.in.valid && io.in.bits.sof
-  val illegalSize = !FrameSize.isLegal(p, io.frameWidth, io.frameHeight)
-  val drop = Mux(sof, illegalSize, dropping)
+/** The stages in pipeline order (INTERFACES.md §3 names); a [[Pipeline]] is built up to one of them. */
+sealed abstract class Stage(val name: String, val index: Int)
+object Stage {
+  case object Descriptor extends Stage("descriptor", 0)
+  case object Support extends Stage("support", 1)
+  case object Filter extends Stage("filter", 2)
+  case object Interp extends Stage("interp", 3)
+  case object Grid extends Stage("grid", 4)
+  case object Planes extends Stage("planes", 5)
+  case object Dense extends Stage("dense", 6)
+  case object LrCheck extends Stage("lrcheck", 7)
+  case object Post extends Stage("post", 8)
+  val all: Seq[Stage] = Seq(Descriptor, Support, Filter, Interp, Grid, Planes, Dense, LrCheck, Post)
+  def byName(name: String): Stage = all.find(_.name == name).getOrElse(
+    throw new IllegalArgumentException(s"stage '$name' is unknown (legal: ${all.map(_.name).mkString(", ")}, top)"))
+}
 
-  when(io.clearError) { error := false.B }
-  when(sof && illegalSize) { error := true.B }
-  when(io.in.fire) { dropping := drop }
+/** Builds the accelerator's stages, inside the calling module, from the pixel input up to `last` and whatever it
+  * depends on: `grid` needs no `interp`, `planes` no `grid`, `dense` and later need everything. The [[IElas]] top
+  * builds all of it; `make simulate` and the stage chains build a prefix and read that stage's stream. Streams of
+  * stages not built stay `null`.
+  */
+class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidth: UInt, frameHeight: UInt,
+    clearError: Bool) {
+  private def needs(s: Stage): Boolean = last == s || (s match {
+    case Stage.Interp => last.index >= Stage.Planes.index
+    case Stage.Grid => last.index >= Stage.Dense.index
+    case _ => last.index > s.index
+  })
+  private val latticeType = new Framed(SInt((p.dispBits + 1).W))
 
-  descriptor.io.in.valid := io.in.valid && !drop
-  descriptor.io.in.bits := io.in.bits
-  io.in.ready := drop || descriptor.io.in.ready
-  descriptor.io.frameWidth := io.frameWidth
-  descriptor.io.frameHeight := io.frameHeight
-  io.out <> descriptor.io.out
-  io.error := error
+  val guard = Module(new FrameGuard(p))
+  guard.io.in <> in
+  guard.io.frameWidth := frameWidth
+  guard.io.frameHeight := frameHeight
+  guard.io.clearError := clearError
+  val error: Bool = guard.io.error
+  val aborted: DecoupledIO[Bool] = guard.io.aborted
+
+  // Frame sizes: recorded at the guard's start of frame, read by each stage at its own (see FrameSizeTable).
+  private val consumers = scala.collection.mutable.ArrayBuffer.empty[(Bool, Bool, UInt, UInt)]
+  private def sized(sof: Bool, fire: Bool, width: UInt, height: UInt): Unit = consumers += ((sof, fire, width, height))
+  private val tableFull = Wire(Bool())
+
+  private val guardOut = Wire(Decoupled(new PixelPair))
+  private val holdSof = guard.io.out.bits.sof && tableFull
+  guardOut.valid := guard.io.out.valid && !holdSof
+  guardOut.bits := guard.io.out.bits
+  guard.io.out.ready := guardOut.ready && !holdSof
+
+  private val latePath = last.index >= Stage.Dense.index
+  private val pixelFork = Module(new StreamFork(new PixelPair, if (latePath) 2 else 1))
+  pixelFork.io.in <> guardOut
+
+  // ---- early path ----
+  val earlyDesc = Module(new Descriptor(p))
+  earlyDesc.io.in <> pixelFork.io.out(0)
+  sized(earlyDesc.io.in.bits.sof, earlyDesc.io.in.fire, earlyDesc.io.frameWidth, earlyDesc.io.frameHeight)
+  val descriptor: DecoupledIO[Framed[DescriptorPair]] = earlyDesc.io.out
+
+  val support: DecoupledIO[Framed[SInt]] = if (!needs(Stage.Support)) null else {
+    val m = Module(new SupportMatcher(p))
+    m.io.in <> earlyDesc.io.out
+    sized(m.io.in.bits.sof, m.io.in.fire, m.io.frameWidth, m.io.frameHeight)
+    m.io.out
+  }
+  val filter: DecoupledIO[Framed[SInt]] = if (!needs(Stage.Filter)) null else {
+    val m = Module(new SupportFilter(p))
+    m.io.in <> support
+    m.io.out
+  }
+  private val filterFork = if (!needs(Stage.Interp) && !needs(Stage.Grid)) null else {
+    val m = Module(new StreamFork(latticeType, Seq(needs(Stage.Interp), needs(Stage.Grid)).count(identity)))
+    m.io.in <> filter
+    m.io.out.toSeq
+  }
+  val interp: DecoupledIO[Framed[SInt]] = if (!needs(Stage.Interp)) null else {
+    val m = Module(new LatticeFill(p))
+    m.io.in <> filterFork.head
+    sized(m.io.in.bits.sof, m.io.in.fire, m.io.frameWidth, m.io.frameHeight)
+    m.io.out
+  }
+  val grid: DecoupledIO[Framed[GridCellPair]] = if (!needs(Stage.Grid)) null else {
+    val m = Module(new GridVector(p))
+    m.io.in <> filterFork.last
+    sized(m.io.in.bits.sof, m.io.in.fire, m.io.frameWidth, m.io.frameHeight)
+    m.io.out
+  }
+  val planes: DecoupledIO[Framed[PlaneCell]] = if (!needs(Stage.Planes)) null else {
+    val m = Module(new Planes(p))
+    m.io.in <> (if (latePath) Queue(interp, IElas.latticeQueueEntries(p), useSyncReadMem = true) else interp)
+    sized(m.io.in.bits.sof, m.io.in.fire, m.io.frameWidth, m.io.frameHeight)
+    m.io.out
+  }
+
+  // ---- late path ----
+  val dense: DecoupledIO[Framed[DisparityPair]] = if (!latePath) null else {
+    val lateDesc = Module(new Descriptor(p))
+    lateDesc.io.in <> Queue(pixelFork.io.out(1), IElas.bandEntries(p), useSyncReadMem = true)
+    sized(lateDesc.io.in.bits.sof, lateDesc.io.in.fire, lateDesc.io.frameWidth, lateDesc.io.frameHeight)
+    val m = Module(new DenseMatcher(p))
+    m.io.desc <> lateDesc.io.out
+    m.io.planes <> planes
+    m.io.grid <> Queue(grid, IElas.gridQueueEntries(p), useSyncReadMem = true)
+    sized(m.io.desc.bits.sof, m.io.desc.fire, m.io.frameWidth, m.io.frameHeight)
+    m.io.out
+  }
+  val lrcheck: DecoupledIO[Framed[DisparityPair]] = if (!needs(Stage.LrCheck)) null else {
+    val m = Module(new LrCheck(p))
+    m.io.in <> dense
+    m.io.out
+  }
+  val post: DecoupledIO[Framed[SInt]] = if (!needs(Stage.Post)) null else {
+    val m = Module(new PostProcess(p))
+    m.io.in.valid := lrcheck.valid
+    m.io.in.bits.data := lrcheck.bits.data.left // only the left view is post-processed and put out
+    m.io.in.bits.sof := lrcheck.bits.sof
+    m.io.in.bits.eol := lrcheck.bits.eol
+    m.io.in.bits.eof := lrcheck.bits.eof
+    lrcheck.ready := m.io.in.ready
+    sized(m.io.in.bits.sof, m.io.in.fire, m.io.frameWidth, m.io.frameHeight)
+    m.io.out
+  }
+
+  // The last consumer is the slowest: the table is full when it has not started `depth` recorded frames.
+  private val sizes = Module(new FrameSizeTable(p, consumers.length, IElas.framesInFlight(p)))
+  tableFull := sizes.io.full
+  sizes.io.record.valid := guardOut.fire && guardOut.bits.sof
+  sizes.io.record.bits.columns := guard.io.outWidth
+  sizes.io.record.bits.rows := guard.io.outHeight
+  for (((sof, fire, width, height), k) <- consumers.zipWithIndex) {
+    width := sizes.io.size(k).columns
+    height := sizes.io.size(k).rows
+    sizes.io.started(k) := fire && sof
+  }
 }
 
 object IElas {
-  def memorySummary(p: ElasParams): Seq[MemoryUse] = Descriptor.memorySummary(p)
-
   /** The top's no-stall bound N + latencyRows * W + cycleSlack (INTERFACES.md §4); the sweep's cycle model reads
-    * these (`Main config`), so they must follow the stages wired in here.
+    * these (`Main config`). Latency: the band, the late descriptor, the L/R check's row and post's look-ahead.
     */
-  def latencyRows(p: ElasParams): Int = Descriptor.latencyRows(p)
-  def cycleSlack(p: ElasParams): Int = Descriptor.cycleSlack(p)
+  def latencyRows(p: ElasParams): Int = bandRows(p) + Descriptor.latencyRows(p) + 1 + PostProcess.latencyRows(p) + 2
+  def cycleSlack(p: ElasParams): Int = 1000
+  /** Image rows the early path needs beyond the row the late path works on: the grid row's dilation and filter
+    * window (docs/ALGORITHM.md look-ahead table), the planes' next lattice row plus the fill's look-ahead, whichever
+    * is larger, plus one lattice step and two rows of slack for the stages' internal pipelining.
+    */
+  def earlyLookahead(p: ElasParams): Int = {
+    val support = 2 * p.windowRadius + 1
+    val filter = p.inconWindowSize * p.candidateStep + support
+    val grid = 2 * p.gridSize - p.candidateStep + filter
+    val fill = p.fillRule match {
+      case FillRule.R7 => filter + 2 * p.candidateStep // lattice row 0 looks at rows 1..2
+      case FillRule.Paper => filter + p.sDelta
+    }
+    math.max(grid, p.candidateStep + fill)
+  }
+  def bandRows(p: ElasParams): Int = earlyLookahead(p) + p.candidateStep + 2
+  def bandEntries(p: ElasParams): Int = bandRows(p) * p.maxWidth
+  /** Lattice rows the fill can run ahead of the planes (one row per step image rows of the band), plus two. */
+  def latticeQueueEntries(p: ElasParams): Int = (bandRows(p) / p.candidateStep + 3) * p.latticeColsMax
+  def gridQueueEntries(p: ElasParams): Int = (bandRows(p) / p.gridSize + 3) * p.gridColsMax
+  /** Frames between the guard and post: a band of the smallest frame (16 rows) each, plus the pipeline. */
+  def framesInFlight(p: ElasParams): Int = 1 << log2Ceil(bandRows(p) / FrameSize.minHeight + 4)
+
+  def memorySummary(p: ElasParams): Seq[MemoryUse] = {
+    val pixelBits = 2 * 8 + 2
+    val latticeBits = p.dispBits + 1 + 3
+    val gridBits = 2 * p.storedDisparities * (p.dispBits + 1) + 3
+    Descriptor.memorySummary(p).map(_.copy(module = "Descriptor (early)")) ++
+      SupportMatcher.memorySummary(p) ++ SupportFilter.memorySummary(p) ++ LatticeFill.memorySummary(p) ++
+      GridVector.memorySummary(p) ++
+      Seq(MemoryUse("IElas", "lattice queue", latticeQueueEntries(p), latticeBits, "filled lattice rows the early path runs ahead"),
+        MemoryUse("IElas", "grid queue", gridQueueEntries(p), gridBits, "grid cells the early path runs ahead"),
+        MemoryUse("IElas", "pixel band", bandEntries(p), pixelBits, s"${bandRows(p)} rows of pixel pairs + framing")) ++
+      Planes.memorySummary(p) ++ Descriptor.memorySummary(p).map(_.copy(module = "Descriptor (late)")) ++
+      DenseMatcher.memorySummary(p) ++ LrCheck.memorySummary(p) ++ PostProcess.memorySummary(p)
+  }
+}
+
+/** A frame's size as sampled at its start of frame. */
+class FrameDims(p: ElasParams) extends Bundle {
+  val columns = UInt(p.colBits.W)
+  val rows = UInt(p.rowBits.W)
+}
+
+/** Sizes of the frames in flight, written at the guard's start of frame and read by each consumer stage at its own
+  * start of frame (consumer k reads entry started(k) counts). The last consumer is the slowest, so the table is
+  * full when `depth` frames have been recorded that it has not started.
+  */
+class FrameSizeTable(p: ElasParams, consumers: Int, depth: Int) extends Module {
+  require(isPow2(depth), s"FrameSizeTable: depth = $depth must be a power of 2")
+  val io = IO(new Bundle {
+    val record = Flipped(Valid(new FrameDims(p)))
+    val full = Output(Bool())
+    val size = Output(Vec(consumers, new FrameDims(p)))
+    val started = Input(Vec(consumers, Bool()))
+  })
+  private val ptrBits = log2Ceil(depth) + 1
+  val table = Reg(Vec(depth, new FrameDims(p)))
+  val written = RegInit(0.U(ptrBits.W))
+  val read = RegInit(VecInit(Seq.fill(consumers)(0.U(ptrBits.W))))
+  when(io.record.valid) {
+    table(written(ptrBits - 2, 0)) := io.record.bits
+    written := written + 1.U
+  }
+  for (k <- 0 until consumers) {
+    // A stage right behind the guard starts its frame in the cycle the size is recorded: forward it.
+    io.size(k) := Mux(io.record.valid && read(k) === written, io.record.bits, table(read(k)(ptrBits - 2, 0)))
+    when(io.started(k)) { read(k) := read(k) + 1.U }
+  }
+  io.full := written - read(consumers - 1) === depth.U
+}
+
+/** Ends an aborted frame's output after the output line in progress (INTERFACES.md §4): the rest of that frame's
+  * output is dropped and its end of frame never appears. `aborted` carries one verdict per frame, known once the
+  * guard has seen the whole frame; a frame whose verdict is not yet known keeps flowing.
+  */
+class OutputGate extends Module {
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(new Framed(SInt(16.W))))
+    val aborted = Flipped(Decoupled(Bool()))
+    val out = Decoupled(new Framed(SInt(16.W)))
+  })
+  val cutting = RegInit(false.B) // the current frame was aborted and its current line has ended
+  val abortNow = io.aborted.valid && io.aborted.bits
+  val drop = cutting || (abortNow && io.in.bits.sof) // an aborted frame not yet started sends nothing
+  io.out.valid := io.in.valid && !drop
+  io.out.bits := io.in.bits
+  io.out.bits.eof := io.in.bits.eof && !abortNow
+  io.in.ready := drop || io.out.ready
+  io.aborted.ready := io.in.fire && io.in.bits.eof
+  when(io.in.fire) {
+    when(io.in.bits.eof) { cutting := false.B }
+      .elsewhen(abortNow && (io.in.bits.eol || io.in.bits.sof)) { cutting := true.B }
+  }
+}
+
+/** The pixel input through the hardware up to one stage, whose stream leaves flattened (`asUInt` of the stage's
+  * beat: the first field of a bundle in the most significant bits, element 0 of a Vec in the least): what
+  * `make simulate STAGE=` and the chained stage tests read. `make simulate STAGE=top` uses [[IElas]] itself.
+  */
+class StageTap(p: ElasParams, val stage: Stage) extends Module {
+  private def dataOf(s: Stage): Data = s match {
+    case Stage.Descriptor => new DescriptorPair(p.descriptorBytes)
+    case Stage.Grid => new GridCellPair(p)
+    case Stage.Planes => new PlaneCell(p)
+    case Stage.Dense | Stage.LrCheck => new DisparityPair(p)
+    case Stage.Post => SInt(16.W)
+    case _ => SInt((p.dispBits + 1).W)
+  }
+  val dataWidth: Int = dataOf(stage).getWidth
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(new PixelPair))
+    val frameWidth = Input(UInt(p.colBits.W))
+    val frameHeight = Input(UInt(p.rowBits.W))
+    val error = Output(Bool())
+    val clearError = Input(Bool())
+    val out = Decoupled(new Framed(UInt(dataWidth.W)))
+  })
+  val pipeline = new Pipeline(p, stage, io.in, io.frameWidth, io.frameHeight, io.clearError)
+  io.error := pipeline.error
+  pipeline.aborted.ready := true.B // no output gate here: a tap shows what the stage put out
+  private val stream: DecoupledIO[Framed[Data]] = (stage match {
+    case Stage.Descriptor => pipeline.descriptor
+    case Stage.Support => pipeline.support
+    case Stage.Filter => pipeline.filter
+    case Stage.Interp => pipeline.interp
+    case Stage.Grid => pipeline.grid
+    case Stage.Planes => pipeline.planes
+    case Stage.Dense => pipeline.dense
+    case Stage.LrCheck => pipeline.lrcheck
+    case Stage.Post => pipeline.post
+  }).asInstanceOf[DecoupledIO[Framed[Data]]]
+  io.out.valid := stream.valid
+  io.out.bits.data := stream.bits.data.asUInt
+  io.out.bits.sof := stream.bits.sof
+  io.out.bits.eol := stream.bits.eol
+  io.out.bits.eof := stream.bits.eof
+  stream.ready := io.out.ready
 }

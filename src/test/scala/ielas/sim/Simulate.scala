@@ -10,29 +10,23 @@ import scala.util.Random
   * Every value it writes comes out of the simulated hardware: it never calls the golden model.
   */
 object Simulate {
-  val stages: Seq[String] = Seq("descriptor", "support", "filter")
+  val stages: Seq[String] = Stage.all.map(_.name)
 
   def main(args: Array[String]): Unit = Cli.exitOnError("simulate") {
     val opts = Cli.parse(args, Set("--config", "--stage", "--left", "--right", "--out"),
       "usage: Simulate --config NAME|FILE.json --stage STAGE --left L --right R --out DIR")
     val p = ConfigJson.load(opts("--config"))
-    val stage = opts("--stage")
-    if (!stages.contains(stage))
-      throw new IllegalArgumentException(s"stage '$stage' is not implemented yet (built so far: ${stages.mkString(", ")})")
+    val stage = Stage.byName(opts("--stage"))
     val (left, right) = Cli.readPair(p, Paths.get(opts("--left")), Paths.get(opts("--right")))
     val out = Paths.get(opts("--out"))
     Files.createDirectories(out)
-    val (cycles, files) = stage match {
-      case "support" => (SupportRun.run(p, left, right, out), Seq("support_L.npy"))
-      case "filter" => (SupportRun.run(p, left, right, out, filtered = true), Seq("support_filtered_L.npy"))
-      case _ =>
-        val result = DescriptorRun.run(p, left, right)
-        result.writeDump(out)
-        (result.cycles, Seq("descriptor_L.npy", "descriptor_R.npy"))
-    }
-    Files.write(out.resolve("cycles.txt"), s"$cycles\n".getBytes)
-    println(s"cycles: $cycles")
-    println(s"wrote ${(files :+ "cycles.txt").map(out.resolve(_)).mkString(", ")}")
+    val result = StageRun.run(p, stage, left, right)
+    val files = result.write(out)
+    Files.write(out.resolve("cycles.txt"), s"${result.cycles}\n".getBytes)
+    println(s"cycles: ${result.cycles}")
+    println(s"wrote ${(files :+ out.resolve("cycles.txt")).mkString(", ")}")
+    if (result.framingErrors.nonEmpty)
+      throw new IllegalStateException(s"framing wrong: ${result.framingErrors.mkString("; ")}")
   }
 }
 
