@@ -100,8 +100,8 @@ test-synth: deps-synth
 test-hw: golden
 	$(call SBT_RUN,test)
 
-test-full: golden ## full-size frames end to end (not in CI)
-	@echo "test-full: not implemented yet (needs the whole accelerator)"; exit 1
+test-full: deps-sim golden ## full-size frames end to end (not in CI): KITTI 1241x376 and a 640x480 Reindeer crop
+	scripts/test_full.sh
 
 # ---- measurements ----
 eval: golden ## accuracy tables: MODE=elas|ielas PRESET=robotics|middlebury or CONFIG=

@@ -9,7 +9,7 @@
 #                        the `make bench` numbers: N frames (default 3) of a pair (default KITTI 2012 000070) with no
 #                        stalls, then with 10 % input gaps and 10 % output stalls (seed 1); writes
 #                        build/bench/<config>/performance.md (a Markdown table) and the two runs' logs
-#   scripts/sim.sh demo  CONFIG [--stub] [--left L --right R] [--gt G] [--out DIR]
+#   scripts/sim.sh demo  CONFIG [--stub] [--left L --right R] [--gt G [--gt-scale S]] [--out DIR]
 #                        the `make run` job: the golden model's dump of the pair (default KITTI 2012 000070 with
 #                        its disp_noc ground truth; without ../shared/data, the synthetic scene of ielas-synth
 #                        at up to 640x360) into DIR/golden, the harness with --expect and --images into
@@ -123,7 +123,7 @@ fi
 DATA="${IELAS_DATA:-$ROOT/../shared/data}"
 LEFT="$DATA/kitti2012/training/image_0/000070_10.png"
 RIGHT="$DATA/kitti2012/training/image_1/000070_10.png"
-GT="" RUN_OUT="$ROOT/build/run"
+GT="" GT_SCALE="" RUN_OUT="$ROOT/build/run"
 [ -r "$LEFT" ] && GT="$DATA/kitti2012/training/disp_noc/000070_10.png"
 FRAMES=3
 while [ $# -gt 0 ]; do
@@ -132,6 +132,7 @@ while [ $# -gt 0 ]; do
     --right) [ $# -ge 2 ] || die "--right needs a value"; RIGHT="$2"; shift ;;
     --frames) [ "$CMD" = bench ] && [ $# -ge 2 ] || die "$CMD: --frames is a bench option with a value"; FRAMES="$2"; shift ;;
     --gt) [ "$CMD" = demo ] && [ $# -ge 2 ] || die "$CMD: --gt is a demo option with a value"; GT="$2"; shift ;;
+    --gt-scale) [ "$CMD" = demo ] && [ $# -ge 2 ] || die "$CMD: --gt-scale is a demo option with a value"; GT_SCALE="$2"; shift ;;
     --out) [ "$CMD" = demo ] && [ $# -ge 2 ] || die "$CMD: --out is a demo option with a value"; RUN_OUT="$2"; shift ;;
     *) die "$CMD: unknown option $1" ;;
   esac
@@ -166,7 +167,7 @@ if [ "$CMD" = demo ]; then
   [ -f "$RUN_OUT/hardware/disparity.npy" ] || exit "$code"
   if [ -n "$GT" ]; then
     [ -r "$GT" ] || die "demo: cannot read ground truth $GT"
-    line="$("$EVAL" score --disp "$RUN_OUT/hardware/disparity.npy" --gt "$GT" --colour "$RUN_OUT/disparity.png")" \
+    line="$("$EVAL" score --disp "$RUN_OUT/hardware/disparity.npy" --gt "$GT" ${GT_SCALE:+--gt-scale "$GT_SCALE"} --colour "$RUN_OUT/disparity.png")" \
       || die "demo: scoring against $GT failed"
     echo "$line" | awk -F, '{ printf "bad-3: %.2f\n", $7 }'   # column bad3: invalid pixels count as bad
   else

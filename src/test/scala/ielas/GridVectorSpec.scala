@@ -284,36 +284,3 @@ class GridVectorTestTop(p: ElasParams) extends chisel3.Module {
   when(io.lattice.valid && !unit.io.in.ready) { stalls := stalls + 1.U }
   io.latticeStalls := stalls
 }
-
-/** `make simulate STAGE=grid` (for the lead to wire into sim/Simulate.scala): one frame through [[GridVectorChain]]
-  * in Verilator (no stalls); grid_L.npy and grid_R.npy written from the hardware's outputs. The Verilator build is
-  * cached per configuration.
-  */
-object GridRun {
-  /** Writes DIR/grid_L.npy and DIR/grid_R.npy and returns the cycle count. */
-  def run(p: ElasParams, left: GrayImage, right: GrayImage, dir: Path): Long = {
-    val (w, h) = (left.width, left.height)
-    val (gh, gw, sd) = (p.gridCount(h), p.gridCount(w), p.storedDisparities)
-    val raw = Seq.fill(2)(new Array[Byte](2 * gh * gw * sd))
-    var cycles = 0L
-    var framing: Option[String] = None
-    val workDir = java.nio.file.Paths.get("build", "sim-cache", s"${p.name}-grid").toAbsolutePath
-    StreamTester.simulate(new GridVectorChain(p), workDir, cache = true) { dut =>
-      StreamTester.reset(dut)
-      cycles = GridVectorSpec.streamFrames(dut.clock, dut.io, p, Seq((left, right)), StreamTester.noStall, new Random(0),
-        (i, beat) => {
-          val (gy, gx) = ((i / gw).toInt, (i % gw).toInt)
-          if (framing.isEmpty && (beat.sof != (i == 0) || beat.eol != (gx == gw - 1) || beat.eof != (i == gh.toLong * gw - 1)))
-            framing = Some(s"framing wrong at grid cell (row $gy, col $gx): sof ${beat.sof} eol ${beat.eol} eof ${beat.eof}")
-          for ((values, a) <- Seq(beat.left, beat.right).zip(raw); k <- 0 until sd) {
-            val o = 2 * (i.toInt * sd + k)
-            a(o) = values(k).toByte
-            a(o + 1) = (values(k) >> 8).toByte
-          }
-        }, 4L * w * h + 100000, "simulate")
-    }
-    framing.foreach(f => throw new IllegalStateException(f))
-    for ((a, v) <- raw.zip(Seq("L", "R"))) NpyArray.write(dir.resolve(s"grid_$v.npy"), "<i2", Seq(gh, gw, sd), a)
-    cycles
-  }
-}

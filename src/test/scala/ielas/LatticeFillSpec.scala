@@ -254,33 +254,3 @@ object LatticeFillSpec {
     (base + c, s"filter bound + slots * rowCycles = filter bound + $c")
   }
 }
-
-/** For `make simulate STAGE=interp`: one frame through Descriptor -> SupportMatcher -> SupportFilter -> LatticeFill in
-  * Verilator (no stalls); DIR/lattice_L.npy is written from the hardware's outputs and the cycle count returned. The
-  * Verilator build is cached per configuration (and fill rule).
-  */
-object LatticeFillRun {
-  def run(p: ElasParams, left: GrayImage, right: GrayImage, dir: Path): Long = {
-    val (w, h) = (left.width, left.height)
-    val (lh, lw) = (p.latticeCount(h), p.latticeCount(w))
-    val raw = new Array[Byte](2 * lh * lw)
-    var cycles = 0L
-    var framing: Option[String] = None
-    val workDir = java.nio.file.Paths.get("build", "sim-cache", s"${p.name}-${p.fillRule.name}-interp").toAbsolutePath
-    StreamTester.simulate(new LatticeFillChain(p), workDir, cache = true) { dut =>
-      StreamTester.reset(dut)
-      cycles = SupportMatcherSpec.streamFrames(dut, p, Seq((left, right)), StreamTester.noStall, new Random(0),
-        (i, beat) => {
-          val (j, col) = ((i / lw).toInt, (i % lw).toInt)
-          if (framing.isEmpty && (beat.sof != (i == 0) || beat.eol != (col == lw - 1) || beat.eof != (i == lh.toLong * lw - 1)))
-            framing = Some(s"framing wrong at lattice (row $j, col $col): sof ${beat.sof} eol ${beat.eol} eof ${beat.eof}")
-          raw((2 * i).toInt) = beat.value.toByte
-          raw((2 * i + 1).toInt) = (beat.value >> 8).toByte
-        }, 4L * w * h + 100000, "simulate")
-    }
-    framing.foreach(f => throw new IllegalStateException(f))
-    java.nio.file.Files.createDirectories(dir)
-    NpyArray.write(dir.resolve("lattice_L.npy"), "<i2", Seq(lh, lw), raw)
-    cycles
-  }
-}

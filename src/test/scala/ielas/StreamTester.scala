@@ -65,18 +65,20 @@ object StreamTester {
   /** Streams `inputs` into `in` and hands the first `expectedOutputs` transfers of `out` to `sink` (in order, with
     * their index). Returns the cycles from the first offered input to the last expected output transfer, inclusive.
     * `pokeBeat` sets the input bits; `peekBeat` reads the output bits (called only on a transfer).
-    * Throws when `maxCycles` pass first. `onCycle` runs once per cycle before the clock edge (side channels).
+    * Throws when `maxCycles` pass first. `onCycle` runs once per cycle before the clock edge (side channels);
+    * `stopWhen` ends the run early (for streams whose output count is not known in advance).
     */
   def run[D <: Data, E <: Data, I, O](clock: Clock, in: DecoupledIO[D], inputs: Iterator[I], pokeBeat: (D, I) => Unit,
       out: DecoupledIO[E], expectedOutputs: Long, peekBeat: E => O, sink: (Long, O) => Unit,
-      traffic: Traffic, rnd: Random, maxCycles: Long, what: String = "stream", onCycle: () => Unit = () => ()): Long = {
+      traffic: Traffic, rnd: Random, maxCycles: Long, what: String = "stream", onCycle: () => Unit = () => (),
+      stopWhen: () => Boolean = () => false): Long = {
     var cycles = 0L
     var received = 0L
     var pending: Option[I] = None
     var offered = false
     var lastValid: Option[Boolean] = None
     var lastReady: Option[Boolean] = None
-    while (received < expectedOutputs || pending.nonEmpty || inputs.hasNext) {
+    while (!stopWhen() && (received < expectedOutputs || pending.nonEmpty || inputs.hasNext)) {
       if (cycles >= maxCycles)
         throw new AssertionError(s"$what: timeout after $cycles cycles with $received of $expectedOutputs outputs " +
           s"(seed ${seed})")

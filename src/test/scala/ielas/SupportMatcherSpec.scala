@@ -198,35 +198,3 @@ object SupportMatcherSpec {
     }
   }
 }
-
-/** `make simulate STAGE=support|filter`: one frame through the Descriptor -> SupportMatcher (-> SupportFilter) chain
-  * in Verilator (no stalls), support_L.npy / support_filtered_L.npy written from the hardware's outputs. The
-  * Verilator build is cached per configuration and stage.
-  */
-object SupportRun {
-  /** Writes DIR/support_L.npy (or, with `filtered`, DIR/support_filtered_L.npy) and returns the cycle count. */
-  def run(p: ElasParams, left: GrayImage, right: GrayImage, dir: Path, filtered: Boolean = false): Long = {
-    val (w, h) = (left.width, left.height)
-    val (lh, lw) = (p.latticeCount(h), p.latticeCount(w))
-    val raw = new Array[Byte](2 * lh * lw)
-    var cycles = 0L
-    var framing: Option[String] = None
-    val stage = if (filtered) "filter" else "support"
-    val workDir = java.nio.file.Paths.get("build", "sim-cache", s"${p.name}-$stage").toAbsolutePath
-    def chain: LatticeChain = if (filtered) new SupportFilterChain(p) else new SupportChain(p)
-    StreamTester.simulate(chain, workDir, cache = true) { dut =>
-      StreamTester.reset(dut)
-      cycles = SupportMatcherSpec.streamFrames(dut, p, Seq((left, right)), StreamTester.noStall, new Random(0),
-        (i, beat) => {
-          val (j, col) = ((i / lw).toInt, (i % lw).toInt)
-          if (framing.isEmpty && (beat.sof != (i == 0) || beat.eol != (col == lw - 1) || beat.eof != (i == lh.toLong * lw - 1)))
-            framing = Some(s"framing wrong at lattice (row $j, col $col): sof ${beat.sof} eol ${beat.eol} eof ${beat.eof}")
-          raw((2 * i).toInt) = beat.value.toByte
-          raw((2 * i + 1).toInt) = (beat.value >> 8).toByte
-        }, 4L * w * h + 100000, "simulate")
-    }
-    framing.foreach(f => throw new IllegalStateException(f))
-    NpyArray.write(dir.resolve(if (filtered) "support_filtered_L.npy" else "support_L.npy"), "<i2", Seq(lh, lw), raw)
-    cycles
-  }
-}

@@ -30,46 +30,6 @@ object Simulate {
   }
 }
 
-/** The descriptor stage's outputs of one frame, as streamed out of the hardware. */
-case class DescriptorRun(width: Int, height: Int, left: Array[Byte], right: Array[Byte], cycles: Long, seconds: Double) {
-  def writeDump(dir: Path): Unit = {
-    NpyArray.write(dir.resolve("descriptor_L.npy"), "|u1", Seq(height, width, 16), left)
-    NpyArray.write(dir.resolve("descriptor_R.npy"), "|u1", Seq(height, width, 16), right)
-  }
-  def simulatorCyclesPerSecond: Double = cycles / seconds
-}
-
-object DescriptorRun {
-  /** Streams one frame through the DescriptorChain with no stalls; the Verilator build is cached per configuration. */
-  def run(p: ElasParams, left: GrayImage, right: GrayImage): DescriptorRun = {
-    val (w, h) = (left.width, left.height)
-    val l = new Array[Byte](w * h * 16)
-    val r = new Array[Byte](w * h * 16)
-    var cycles = 0L
-    var seconds = 0.0
-    var framing: Option[String] = None
-    val workDir = Paths.get("build", "sim-cache", s"${p.name}-descriptor").toAbsolutePath
-    StreamTester.simulate(new DescriptorChain(p), workDir, cache = true) { dut =>
-      StreamTester.reset(dut)
-      val t0 = System.nanoTime()
-      cycles = StreamTester.streamDescriptorFrames(dut, Seq((left, right)), StreamTester.noStall, new Random(0),
-        (i, beat) => {
-          val (x, y) = ((i % w).toInt, (i / w).toInt)
-          if (framing.isEmpty && (beat.sof != (i == 0) || beat.eol != (x == w - 1) || beat.eof != (i == w.toLong * h - 1)))
-            framing = Some(s"framing wrong at output (x=$x, y=$y): sof ${beat.sof} eol ${beat.eol} eof ${beat.eof}")
-          for (k <- 0 until 16) {
-            l((i * 16 + k).toInt) = (beat.left >> (8 * k)).toByte
-            r((i * 16 + k).toInt) = (beat.right >> (8 * k)).toByte
-          }
-        }, 4L * w * h + 100000, "simulate")
-      seconds = (System.nanoTime() - t0) / 1e9
-      if (StreamTester.peek(dut.io.error)) framing = Some("the hardware raised its error bit")
-    }
-    framing.foreach(f => throw new IllegalStateException(f))
-    DescriptorRun(w, h, l, r, cycles, seconds)
-  }
-}
-
 /** Argument parsing and input checks shared by the simulation programs: bad input = one line on stderr, exit 1. */
 object Cli {
   def exitOnError(program: String)(body: => Unit): Unit = {
