@@ -369,12 +369,15 @@ class DenseMatcher(p: ElasParams) extends Module {
     Mux(owner(0), planes(1), planes(0))
   }
 
+  /** Sum of |x_k - y_k| over the bytes. One subtractor per byte: for a negative difference d, the low 8 bits of d
+    * inverted are |d| - 1, so the sum adds the inverted bytes plus the count of negative ones (no compare, no second
+    * subtractor, no mux).
+    */
   def sad16(x: UInt, y: UInt): UInt = {
-    val diffs = (0 until p.descriptorBytes).map { k =>
-      val (bx, by) = (x(8 * k + 7, 8 * k), y(8 * k + 7, 8 * k))
-      Mux(bx > by, bx - by, by - bx)
-    }
-    VecInit(diffs).reduceTree(_ +& _)
+    val diffs = (0 until p.descriptorBytes).map(k => x(8 * k + 7, 8 * k).zext - y(8 * k + 7, 8 * k).zext)
+    val signs = diffs.map(_(8))
+    val mags = diffs.zip(signs).map { case (d, neg) => d(7, 0).asUInt ^ Fill(8, neg) }
+    VecInit(mags).reduceTree(_ +& _) +& PopCount(signs)
   }
   val mid = VecInit(Seq.fill(p.descriptorBytes)(128.U(8.W))).asUInt
   val refL = winL(D)
