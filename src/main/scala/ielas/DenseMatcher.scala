@@ -26,11 +26,14 @@ import chisel3.util._
   *   window registers = (dispMax + 1 + 2 dispMax + 1) x 128 bits   (small: 95 x 128; kitti: 767 x 128)
   *   SAD16 units      = 2 (dispMax + 1) per clock (all disparities of both views, so every candidate set is
   *                      served at one pixel per clock; denseLanes / denseLanesUsed are not used by this structure)
-  * Where the area goes at kitti (dispMax 255): 512 SAD16 units, 50 (2R+1 + storedDisparities per view) 12-bit
-  * 256:1 cost muxes and 767 x 128 window flip-flops, against 50 128-bit 256:1 descriptor muxes (about 5x the LUTs
-  * of the cost muxes plus SADs) for one read per candidate lane. A further halving is possible: the right view's
-  * cost at (P, d) equals the left view's at (P + d, d), so a per-d delay line of dispMax - d steps (12 bits,
-  * SRL-friendly) could replace the right view's dispMax + 1 SAD units.
+  * Measured (Yosys 0.23 synth_xilinx xc7, lut6 mapper, this module alone at `small`, dispMax 31): 38.5k LUT,
+  * 12.0k FF, 248 RAM32M, no BRAM/DSP; most LUTs are the 64 SAD16 units (one subtractor per byte). The per-lane
+  * alternative needs 2 (2R+1 + storedDisparities) = 50 descriptor muxes of 128 bits, (dispMax+1):1 each: about
+  * 50 x 128 x 11 = 70k LUT6 at small and 50 x 128 x 85 = 544k at kitti, against 8x the SAD part of this
+  * structure at kitti (512 units; by scaling on the order of 200k LUT; not synthesised). A further halving is possible:
+  * the right view's cost at (P, d) equals the left view's at (P + d, d), so a per-d delay line of dispMax - d
+  * steps (12 bits, SRL-friendly) could replace the right view's SAD units, at the price of evaluating the two
+  * views dispMax pixels apart (one rasteriser, plane and grid read per view position).
   * Entries that fall into another row (or the flush after a frame) are never selected: a candidate is skipped
   * unless m <= t <= W-1-m, which keeps t in P's row. After the last beat of a frame the stage inserts dispMax flush
   * steps (input not ready) to bring the frame's last dispMax pixels through.
