@@ -91,7 +91,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   // The golden model's dense stage accepts at most 127 grid slots and plane range candidates; beyond that the
   // hardware could not be verified.
   require(S < 128, s"storedDisparities = $S is out of range for the dense stage (legal: 1..${math.min(127, D + 1)})")
-  require(2 * R + 1 < 128, s"planeRadius = $R (from sigma x sradius) is out of range for the dense stage (legal: 2..63)")
+  require(2 * R + 1 < 128,
+    s"planeRadius = $R (from sigma x sradius) is out of range for the dense stage (legal: 2..63)")
 
   val io = IO(new Bundle {
     val desc = Flipped(Decoupled(new Framed(new DescriptorPair(p.descriptorBytes))))
