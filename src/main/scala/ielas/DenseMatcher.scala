@@ -26,11 +26,14 @@ import chisel3.util._
   *   window registers = (dispMax + 1 + 2 dispMax + 1) x 128 bits   (small: 95 x 128; kitti: 767 x 128)
   *   SAD16 units      = 2 (dispMax + 1) per clock (all disparities of both views, so every candidate set is
   *                      served at one pixel per clock; denseLanes / denseLanesUsed are not used by this structure)
-  * Where the area goes at kitti (dispMax 255): 512 SAD16 units, 50 (2R+1 + storedDisparities per view) 12-bit
-  * 256:1 cost muxes and 767 x 128 window flip-flops, against 50 128-bit 256:1 descriptor muxes (about 5x the LUTs
-  * of the cost muxes plus SADs) for one read per candidate lane. A further halving is possible: the right view's
-  * cost at (P, d) equals the left view's at (P + d, d), so a per-d delay line of dispMax - d steps (12 bits,
-  * SRL-friendly) could replace the right view's dispMax + 1 SAD units.
+  * Measured (Yosys 0.23 synth_xilinx xc7, lut6 mapper, this module alone at `small`, dispMax 31): 38.5k LUT,
+  * 12.0k FF, 248 RAM32M, no BRAM/DSP; most LUTs are the 64 SAD16 units (one subtractor per byte). The per-lane
+  * alternative needs 2 (2R+1 + storedDisparities) = 50 descriptor muxes of 128 bits, (dispMax+1):1 each: about
+  * 50 x 128 x 11 = 70k LUT6 at small and 50 x 128 x 85 = 544k at kitti, against 8x the SAD part of this
+  * structure at kitti (512 units; by scaling on the order of 200k LUT; not synthesised). A further halving is possible:
+  * the right view's cost at (P, d) equals the left view's at (P + d, d), so a per-d delay line of dispMax - d
+  * steps (12 bits, SRL-friendly) could replace the right view's SAD units, at the price of evaluating the two
+  * views dispMax pixels apart (one rasteriser, plane and grid read per view position).
   * Entries that fall into another row (or the flush after a frame) are never selected: a candidate is skipped
   * unless m <= t <= W-1-m, which keeps t in P's row. After the last beat of a frame the stage inserts dispMax flush
   * steps (input not ready) to bring the frame's last dispMax pixels through.
@@ -88,7 +91,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   // The golden model's dense stage accepts at most 127 grid slots and plane range candidates; beyond that the
   // hardware could not be verified.
   require(S < 128, s"storedDisparities = $S is out of range for the dense stage (legal: 1..${math.min(127, D + 1)})")
-  require(2 * R + 1 < 128, s"planeRadius = $R (from sigma x sradius) is out of range for the dense stage (legal: 2..63)")
+  require(2 * R + 1 < 128,
+    s"planeRadius = $R (from sigma x sradius) is out of range for the dense stage (legal: 2..63)")
 
   val io = IO(new Bundle {
     val desc = Flipped(Decoupled(new Framed(new DescriptorPair(p.descriptorBytes))))
@@ -369,12 +373,15 @@ class DenseMatcher(p: ElasParams) extends Module {
     Mux(owner(0), planes(1), planes(0))
   }
 
+  /** Sum of |x_k - y_k| over the bytes. One subtractor per byte: for a negative difference d, the low 8 bits of d
+    * inverted are |d| - 1, so the sum adds the inverted bytes plus the count of negative ones (no compare, no second
+    * subtractor, no mux).
+    */
   def sad16(x: UInt, y: UInt): UInt = {
-    val diffs = (0 until p.descriptorBytes).map { k =>
-      val (bx, by) = (x(8 * k + 7, 8 * k), y(8 * k + 7, 8 * k))
-      Mux(bx > by, bx - by, by - bx)
-    }
-    VecInit(diffs).reduceTree(_ +& _)
+    val diffs = (0 until p.descriptorBytes).map(k => x(8 * k + 7, 8 * k).zext - y(8 * k + 7, 8 * k).zext)
+    val signs = diffs.map(_(8))
+    val mags = diffs.zip(signs).map { case (d, neg) => d(7, 0).asUInt ^ Fill(8, neg) }
+    VecInit(mags).reduceTree(_ +& _) +& PopCount(signs)
   }
   val mid = VecInit(Seq.fill(p.descriptorBytes)(128.U(8.W))).asUInt
   val refL = winL(D)

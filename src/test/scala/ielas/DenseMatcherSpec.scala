@@ -34,7 +34,8 @@ object DenseMatcherSpec {
     val (w, h) = (c.left.width, c.left.height)
     def read(name: String, dtype: String, shape: Seq[Int]): NpyArray = {
       val a = NpyArray.read(dir.resolve(s"$name.npy"))
-      require(a.dtype == dtype && a.shape == shape, s"golden: $name.npy has ${a.dtype} ${a.shape}, expected $dtype $shape")
+      require(a.dtype == dtype && a.shape == shape,
+        s"golden: $name.npy has ${a.dtype} ${a.shape}, expected $dtype $shape")
       a
     }
     val (lw, lh) = (p.latticeCount(w), p.latticeCount(h))
@@ -71,10 +72,11 @@ object DenseMatcherSpec {
     }
   }
 
-  def descBeats(g: Golden): Iterator[(BigInt, BigInt, Boolean, Boolean, Boolean)] = Iterator.range(0, g.w * g.h).map { i =>
-    def word(a: NpyArray) = (0 until 16).foldLeft(BigInt(0))((acc, k) => acc | (BigInt(a(i.toLong * 16 + k)) << (8 * k)))
-    (word(g.desc(0)), word(g.desc(1)), i == 0, i % g.w == g.w - 1, i == g.w * g.h - 1)
-  }
+  def descBeats(g: Golden): Iterator[(BigInt, BigInt, Boolean, Boolean, Boolean)] =
+    Iterator.range(0, g.w * g.h).map { i =>
+      def word(a: NpyArray) = (0 until 16).foldLeft(BigInt(0))((acc, k) => acc | (BigInt(a(i.toLong * 16 + k)) << (8 * k)))
+      (word(g.desc(0)), word(g.desc(1)), i == 0, i % g.w == g.w - 1, i == g.w * g.h - 1)
+    }
 
   /** Plane cells: (planes of both views as (a, b, c, anchorU, anchorV, valid) x 2 triangles, corners TL TR BL BR). */
   case class CellBeat(planes: Seq[Seq[Seq[Int]]], corners: Seq[Int], sof: Boolean, eol: Boolean, eof: Boolean)
@@ -84,7 +86,7 @@ object DenseMatcherSpec {
       val (cr, cc) = (i / cols, i % cols)
       val planes = g.planes.map(a => (0 until 2).map(t => (0 until 6).map(k => a(a.index(cr, cc, t, k)))))
       val lat = g.lattice
-      val corners = Seq(lat(lat.index(cr, cc)), lat(lat.index(cr, cc + 1)), lat(lat.index(cr + 1, cc)), lat(lat.index(cr + 1, cc + 1)))
+      val corners = Seq((cr, cc), (cr, cc + 1), (cr + 1, cc), (cr + 1, cc + 1)).map { case (j, i) => lat(lat.index(j, i)) }
       CellBeat(planes, corners, i == 0, cc == cols - 1, i == rows * cols - 1)
     }
   }
@@ -98,7 +100,8 @@ object DenseMatcherSpec {
   }
 
   case class Traffic3(desc: Double, planes: Double, grid: Double, outputStall: Double) {
-    override def toString: String = f"gaps desc $desc%.2f planes $planes%.2f grid $grid%.2f, output stalls $outputStall%.2f"
+    override def toString: String =
+      f"gaps desc $desc%.2f planes $planes%.2f grid $grid%.2f, output stalls $outputStall%.2f"
   }
 
   /** Streams `frames` through the stage (their sizes may differ: frameWidth / frameHeight change with each frame's
@@ -106,7 +109,8 @@ object DenseMatcherSpec {
     */
   def stream(dut: DenseMatcher, frames: Seq[Golden], traffic: Traffic3, rnd: Random, sink: (Long, DenseBeat) => Unit,
       maxCycles: Long, what: String): Long = {
-    val desc = new Feed[Framed[DescriptorPair], ((BigInt, BigInt, Boolean, Boolean, Boolean), Golden)]("desc", dut.io.desc,
+    type DescBeat = ((BigInt, BigInt, Boolean, Boolean, Boolean), Golden)
+    val desc = new Feed[Framed[DescriptorPair], DescBeat]("desc", dut.io.desc,
       frames.iterator.flatMap(g => descBeats(g).map((_, g))), (bits, bg) => {
         val (b, g) = bg
         if (b._3) { poke(dut.io.frameWidth, g.w); poke(dut.io.frameHeight, g.h) }
@@ -165,7 +169,8 @@ object DenseMatcherSpec {
     val (kl, kr) = TestImages.kitti2012
     val (tl, tr) = TestImages.middleburyTsukuba
     val (cl, cr) = TestImages.middleburyCones
-    val (k15l, k15r) = TestImages.pair("kitti2015/training/image_2/000046_10.png", "kitti2015/training/image_3/000046_10.png")
+    val (k15l, k15r) =
+      TestImages.pair("kitti2015/training/image_2/000046_10.png", "kitti2015/training/image_3/000046_10.png")
     Seq(
       Case("KITTI 2012 000070 crop 128x64 at (600,150)", kl.crop(600, 150, 128, 64), kr.crop(600, 150, 128, 64)),
       Case("KITTI 2012 000070 crop 128x64 at (100,250)", kl.crop(100, 250, 128, 64), kr.crop(100, 250, 128, 64)),
@@ -199,19 +204,22 @@ object DenseMatcherSpec {
     val descs = Iterator.range(0, w * h).map(i => (word, word, i == 0, i % w == w - 1, i == w * h - 1))
     val cells = Iterator.range(0, rows * cols).map { i =>
       val (cr, cc) = (i / cols, i % cols)
-      CellBeat((0 until 2).map(v => (0 until 2).map(t => Seq(0, 0, value(v, cr, cc, t) << 16, 0, 0, 1))), Seq.fill(4)(p.dispMax),
+      val planes = (0 until 2).map(v => (0 until 2).map(t => Seq(0, 0, value(v, cr, cc, t) << 16, 0, 0, 1)))
+      CellBeat(planes, Seq.fill(4)(p.dispMax),
         i == 0, cc == cols - 1, i == rows * cols - 1)
     }
     val (gw, gh) = (p.gridCount(w), p.gridCount(h))
     val grids = Iterator.range(0, gw * gh).map(i =>
-      GridBeat(Seq.fill(p.storedDisparities)(-1), Seq.fill(p.storedDisparities)(-1), i == 0, i % gw == gw - 1, i == gw * gh - 1))
+      GridBeat(Seq.fill(p.storedDisparities)(-1), Seq.fill(p.storedDisparities)(-1), i == 0, i % gw == gw - 1,
+        i == gw * gh - 1))
     def coord(k: Int, n: Int) = math.min(k * step, n - 1)
     def expected(view: Int, u: Int, v: Int): Int = {
       if (u < m || u > w - 1 - m || v < m || v > h - 1 - m) return -1
       val cr = math.min(v / step, rows - 1)
       val (cc, t) = if (view == 1) (cols - 1, 1) else {
         val cc = math.min(u / step, cols - 1)
-        val (x0, cw, y0, ch) = (coord(cc, w), coord(cc + 1, w) - coord(cc, w), coord(cr, h), coord(cr + 1, h) - coord(cr, h))
+        val (x0, y0) = (coord(cc, w), coord(cr, h))
+        val (cw, ch) = (coord(cc + 1, w) - x0, coord(cr + 1, h) - y0)
         (cc, if ((u - x0) * ch + (v - y0) * cw >= cw * ch) 1 else 0)
       }
       val dp = value(view, cr, cc, t)
@@ -273,14 +281,17 @@ object DenseMatcherSpec {
       reset(dut)
       for ((c, g) <- all.zip(expected)) {
         val board = new DenseScoreboard(Seq(g), c.label)
-        val traffic = Traffic3(rnd.nextDouble() * 0.6, rnd.nextDouble() * 0.9, rnd.nextDouble() * 0.9, rnd.nextDouble() * 0.6)
+        val traffic =
+          Traffic3(rnd.nextDouble() * 0.6, rnd.nextDouble() * 0.9, rnd.nextDouble() * 0.9, rnd.nextDouble() * 0.6)
         stream(dut, Seq(g), traffic, rnd, board.check, choppyBound(Seq(g)), c.label)
         assert(board.board.ok, board.board.report)
         println(s"  ${p.name}: ${board.board.report} (${board.valid} valid disparities; $traffic)")
       }
 
       // planes and grid far ahead of / far behind the descriptors
-      for ((tr, name) <- Seq((Traffic3(0.0, 0.0, 0.0, 0.5), "side streams early"), (Traffic3(0.0, 0.97, 0.97, 0.0), "side streams late"))) {
+      val sideCases = Seq((Traffic3(0.0, 0.0, 0.0, 0.5), "side streams early"),
+        (Traffic3(0.0, 0.97, 0.97, 0.0), "side streams late"))
+      for ((tr, name) <- sideCases) {
         val board = new DenseScoreboard(Seq(expected.head), s"${all.head.label}, $name")
         stream(dut, Seq(expected.head), tr, rnd, board.check, choppyBound(Seq(expected.head)) * 4, name)
         assert(board.board.ok, board.board.report)
