@@ -107,10 +107,8 @@ test-full: deps-sim golden ## full-size frames end to end (not in CI): KITTI 124
 eval: golden ## accuracy tables: MODE=elas|ielas PRESET=robotics|middlebury or CONFIG=
 	scripts/eval.sh $(MODE) $(if $(PRESET),--preset $(PRESET),--config $(CONFIG)) $(EVAL_ARGS)
 
-bench: golden ## cycles/pixel, latency, simulator speed -> docs/performance.md
-	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
-	scripts/sim.sh bench $(CONFIG) $(BENCH_ARGS)
-	cp build/bench/$(CONFIG_NAME)/performance.md docs/performance.md
+bench: deps-sim golden ## cycles/pixel, latency, fps, simulator speed at kitti and tsukuba -> docs/performance.md
+	scripts/bench.sh
 
 synth: deps-synth ## Yosys resource table for one configuration
 	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
