@@ -211,7 +211,7 @@ class PointRunnerTest(unittest.TestCase):
         return {r["point"]: r for r in common.Results(os.path.join(self.grid_dir, "results.csv")).read()}
 
     def test_points_are_recorded_failures_too_and_reruns_skip(self):
-        ok, bad = "quick-small-d31-s20-w5", "quick-small-d15-s10-w7"
+        ok, bad = "quick-small-d15-s10-w5", "quick-small-d15-s10-w7"
         self.assertEqual(self.run_point(bad)[0], 0)  # a failing point is a result, not an error
         self.assertEqual(self.run_point(ok)[0], 0)  # ... and the sweep goes on
         rows = self.rows()
@@ -241,14 +241,14 @@ class PointRunnerTest(unittest.TestCase):
 
     def test_missing_data_is_a_recorded_failure(self):
         os.environ["IELAS_DATA"] = os.path.join(self.dir, "nowhere")
-        self.run_point("quick-small-d31-s20-w5")
-        r = self.rows()["quick-small-d31-s20-w5"]
+        self.run_point("quick-small-d15-s10-w5")
+        r = self.rows()["quick-small-d15-s10-w5"]
         self.assertEqual(r["status"], "failed")
         self.assertIn("ground-truth data missing", r["reason"])
         self.assertEqual(r["LUT"], "100")  # the rest still ran
 
     def test_configuration_rejected_by_elasparams(self):
-        name = "quick-small-d31-s10-w3"
+        name = "quick-small-d15-s8-w3"
         os.remove(os.path.join(self.grid_dir, "configs", name + ".json"))
         with open(os.path.join(self.grid_dir, "configs", name + ".error"), "w") as fh:
             fh.write("storedDisparities = 40 is out of range (legal: 1..32)\n")

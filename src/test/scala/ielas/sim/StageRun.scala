@@ -63,9 +63,9 @@ object StageRun {
       })
       case Stage.Planes => Layout((lh - 1) * (lw - 1), lw - 1, beats => {
         val coeffs = Seq((32, true), (32, true), (32, true), (p.colBits + 1, true), (p.rowBits, false), (1, false))
-        // left triangles 1, 0; right triangles 1, 0; corners BR, BL, TR, TL
+        // MSB first: left triangles 1, 0; right triangles 1, 0; corners BR, BL, TR, TL (so slot 1 - t holds triangle t)
         val f = beats.map(b => fields(b, Seq.fill(4)(coeffs).flatten ++ Seq.fill(4)((p.dispBits, false))))
-        def view(first: Int) = f.flatMap(x => Seq(1, 0).map(t => x.slice((first + t) * 6, (first + t + 1) * 6)).reverse.flatten).toArray
+        def view(first: Int) = f.flatMap(x => Seq(1, 0).map(t => x.slice((first + t) * 6, (first + t + 1) * 6)).flatten).toArray
         Seq(("planes_L", "<i4", Seq(lh - 1, lw - 1, 2, 6), view(0)), ("planes_R", "<i4", Seq(lh - 1, lw - 1, 2, 6), view(2)))
       })
       case Stage.Dense => pair("dense_L", "dense_R")
