@@ -204,9 +204,18 @@ def whole_top(design, args):
     return r
 
 
+# A line buffer is a SyncReadMem of at least LINE_BUFFER_MIN_DEPTH words and LINE_BUFFER_MIN_BITS bits: smaller or
+# shallower memories (a 27-node lattice row, a 128x5 row at a test width) belong in LUT-RAM, which is also what
+# Vivado would pick. Both can be set from the environment (0 and 0: every SyncReadMem must be block RAM).
+LINE_BUFFER_MIN_DEPTH = int(os.environ.get("SYNTH_LINEBUF_MIN_DEPTH", "64"))
+LINE_BUFFER_MIN_BITS = int(os.environ.get("SYNTH_LINEBUF_MIN_BITS", "4096"))
+
+
 def bram_check(result):
-    """Line buffers (SyncReadMem) must become block RAM; anything else is listed."""
-    sync = [m for m in result["memories"] if m.get("sync_read")]
+    """Line buffers (large SyncReadMem memories) must become block RAM; anything else is listed."""
+    sync = [m for m in result["memories"] if m.get("sync_read") and
+            (m.get("depth") is None or (m["depth"] >= LINE_BUFFER_MIN_DEPTH and
+                                        m["depth"] * m.get("width", 1) >= LINE_BUFFER_MIN_BITS))]
     bad = [m for m in sync if m["mapped"] != "BRAM"]
     return {"sync_read_memories": len(sync), "in_bram": len(sync) - len(bad), "not_in_bram": bad, "pass": not bad}
 

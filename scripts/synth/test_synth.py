@@ -159,6 +159,15 @@ class BramCheckTest(unittest.TestCase):
         self.assertEqual((b["sync_read_memories"], b["in_bram"], [m["path"] for m in b["not_in_bram"]], b["pass"]),
                          (2, 1, ["b"], False))
 
+    def test_small_memories_are_not_line_buffers(self):
+        mems = [{"path": "row", "sync_read": True, "mapped": "BRAM", "depth": 1242, "width": 96},
+                {"path": "shallow", "sync_read": True, "mapped": "LUTRAM", "depth": 48, "width": 128},
+                {"path": "small", "sync_read": True, "mapped": "LUTRAM", "depth": 128, "width": 5},
+                {"path": "big", "sync_read": True, "mapped": "LUTRAM", "depth": 1242, "width": 9}]
+        b = flow.bram_check({"memories": mems})
+        self.assertEqual((b["sync_read_memories"], b["in_bram"], [m["path"] for m in b["not_in_bram"]], b["pass"]),
+                         (2, 1, ["big"], False))
+
 
 TINY_SYNC = """module Tiny(input clock, input [3:0] waddr, input [3:0] raddr, input [7:0] wdata, input we,
   output [7:0] out);
@@ -232,7 +241,8 @@ class DesignTest(unittest.TestCase):
         os.makedirs(tiny)
         with open(os.path.join(tiny, "Tiny.sv"), "w") as fh:
             fh.write(TINY_SYNC)
-        env = dict(os.environ, SYNTH_OUT=os.path.join(self.dir, "out"), SYNTH_TOP="Tiny", SYNTH_STRICT="1")
+        env = dict(os.environ, SYNTH_OUT=os.path.join(self.dir, "out"), SYNTH_TOP="Tiny", SYNTH_STRICT="1",
+                   SYNTH_LINEBUF_MIN_DEPTH="0", SYNTH_LINEBUF_MIN_BITS="0")  # count every SyncReadMem
         r = subprocess.run([os.path.join(HERE, "..", "synth.sh"), "t", tiny], capture_output=True, text=True, env=env)
         self.assertEqual(r.returncode, 3, r.stdout + r.stderr)
         with open(os.path.join(self.dir, "out", "resources.json")) as fh:

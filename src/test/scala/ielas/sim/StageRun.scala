@@ -108,7 +108,10 @@ object StageRun {
     var out: StageOutput = null
     StreamTester.simulate(new StageTap(p, stage), workDir, cache = true) { dut =>
       StreamTester.reset(dut)
+      val t0 = System.nanoTime()
       out = stream(dut, p, Seq((left, right)), StreamTester.noStall, new Random(0), 40L * left.width * left.height + 200000, "simulate").head
+      val seconds = (System.nanoTime() - t0) / 1e9
+      println(f"simulation: $seconds%.1f s wall (build excluded), ${out.cycles / seconds}%.0f cycles/s")
       if (StreamTester.peek(dut.io.error)) throw new IllegalStateException("the hardware raised its error bit")
     }
     out
