@@ -111,7 +111,7 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
     m.io.in <> support
     m.io.out
   }
-  private val filterFork = if (!needs(Stage.Interp) && !needs(Stage.Grid)) null else {
+  private val filterFork: Seq[DecoupledIO[Framed[SInt]]] = if (!needs(Stage.Interp) && !needs(Stage.Grid)) null else {
     val m = Module(new StreamFork(latticeType, Seq(needs(Stage.Interp), needs(Stage.Grid)).count(identity)))
     m.io.in <> filter
     m.io.out.toSeq
