@@ -204,10 +204,11 @@ def whole_top(design, args):
     return r
 
 
-# A line buffer is a SyncReadMem of at least LINE_BUFFER_MIN_DEPTH words and LINE_BUFFER_MIN_BITS bits: smaller or
-# shallower memories (a 27-node lattice row, a 128x5 row at a test width) belong in LUT-RAM, which is also what
-# Vivado would pick. Both can be set from the environment (0 and 0: every SyncReadMem must be block RAM).
-LINE_BUFFER_MIN_DEPTH = int(os.environ.get("SYNTH_LINEBUF_MIN_DEPTH", "64"))
+# A line buffer is a SyncReadMem of more than 64 words (the depth of the LUT-RAM primitive RAM64M, which holds
+# shallower memories directly) and at least LINE_BUFFER_MIN_BITS bits: smaller or shallower memories (a 27-node
+# lattice row, a 128x5 row or a 64-word bank of descriptor rows at a test width) belong in LUT-RAM, which is also
+# what Vivado would pick. Both can be set from the environment (0 and 0: every SyncReadMem must be block RAM).
+LINE_BUFFER_MIN_DEPTH = int(os.environ.get("SYNTH_LINEBUF_MIN_DEPTH", "65"))
 LINE_BUFFER_MIN_BITS = int(os.environ.get("SYNTH_LINEBUF_MIN_BITS", "4096"))
 
 

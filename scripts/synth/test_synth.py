@@ -161,7 +161,7 @@ class BramCheckTest(unittest.TestCase):
 
     def test_small_memories_are_not_line_buffers(self):
         mems = [{"path": "row", "sync_read": True, "mapped": "BRAM", "depth": 1242, "width": 96},
-                {"path": "shallow", "sync_read": True, "mapped": "LUTRAM", "depth": 48, "width": 128},
+                {"path": "shallow", "sync_read": True, "mapped": "LUTRAM", "depth": 64, "width": 128},
                 {"path": "small", "sync_read": True, "mapped": "LUTRAM", "depth": 128, "width": 5},
                 {"path": "big", "sync_read": True, "mapped": "LUTRAM", "depth": 1242, "width": 9}]
         b = flow.bram_check({"memories": mems})
