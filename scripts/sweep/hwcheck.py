@@ -5,8 +5,8 @@ same configuration (`ielas-compare`), and its cycle count set beside the cycle m
 
 usage: hwcheck.py [--stage STAGE] [POINT ...]   (default: kitti-d255-s20-w5 kitti-d63-s20-w5
                                                   tsukuba-d127-s20-w5 tsukuba-d63-s20-w5)
-STAGE (default: SWEEP_HW_STAGE or `descriptor`, the deepest stage the IElas top holds today) becomes `top` once the
-whole accelerator is in the top: then the disparity itself, hence the accuracy columns, is checked bit for bit.
+STAGE (default: SWEEP_HW_STAGE or `top`, the whole accelerator: the disparity itself, hence the accuracy columns,
+is checked bit for bit; any earlier stage name checks the hardware up to that stage).
 Writes docs/sweep/hwcheck.json (report.py shows it). Exit 0 when every point is bit-exact and within the model.
 Pairs: kitti = KITTI 2012 #70 (1241x376); tsukuba = the centred 640x480 crop of Middlebury 2006 Reindeer.
 """
@@ -88,7 +88,7 @@ def one(point, stage, golden, evaluator, data):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--stage", default=os.environ.get("SWEEP_HW_STAGE") or "descriptor")
+    ap.add_argument("--stage", default=os.environ.get("SWEEP_HW_STAGE") or "top")
     ap.add_argument("points", nargs="*")
     args = ap.parse_args()
     golden = os.environ.get("IELAS_GOLDEN") or os.path.join(ROOT, "golden/build/ielas-golden")

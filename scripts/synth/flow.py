@@ -23,7 +23,7 @@ import netlist_depth  # noqa: E402
 import verilog_modules  # noqa: E402
 
 # Bump when anything below changes what a cached result means (Yosys options, parsing, depth rules).
-FLOW_VERSION = "1"
+FLOW_VERSION = "2"  # 2: units by hierarchy (a submodule of a stage is its own unit)
 SYNTH_BASE = "synth_xilinx -family xc7 -flatten -noiopad -noclkbuf"
 # LUT mapper. Default lut6: classic ABC without MUXF7/F8 "wide LUTs". With wide LUTs, ABC's choices depend on the
 # surrounding netlist, so a stage alone and the same stage in the flattened top differed by 5 % in LUTs (small);
@@ -171,25 +171,42 @@ def cached(design, module, kind, args, salt, glue_children=None):
     return result
 
 
+def units(design, top):
+    """The synthesis units below `top`, by hierarchy: a module with submodules (memory wrappers aside) is a `glue`
+    unit (its own logic, the submodules as black boxes) and each submodule is a unit in turn; a module without any
+    is a `stage` unit (flattened with its memories). Returns {(module, kind): (boxed children, [instance path
+    prefixes])}; a unit used under several parents or several times is synthesised once and counted per path."""
+    found = {}
+
+    def walk(module, prefixes, is_top):
+        children = design.stages(module)
+        kind = "glue" if children or is_top else "stage"
+        entry = found.setdefault((module, kind), (children if kind == "glue" else None, []))
+        entry[1].extend(prefixes)
+        for child in sorted(children):
+            paths = [pre + inst + "." for pre in prefixes for typ, inst in design.instances[module] if typ == child]
+            walk(child, paths, False)
+    walk(top, [""], True)
+    return found
+
+
 def per_module(design, args, salt):
-    """Each direct child of the top synthesised alone (with its submodules), plus the top's own glue logic."""
-    children = design.stages(args.top)
-    jobs = [(m, "stage", None) for m in sorted(children)] + [(args.top, "glue", children)]
+    """Every unit of the hierarchy synthesised on its own (a replicated unit once) and summed by instance count."""
+    found = units(design, args.top)
+    jobs = sorted(found, key=lambda mk: (mk[0] == args.top, mk))  # the top's glue last
     with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        futures = [pool.submit(cached, design, m, kind, args, salt, glue) for m, kind, glue in jobs]
+        futures = [pool.submit(cached, design, m, kind, args, salt, found[(m, kind)][0]) for m, kind in jobs]
         results = [f.result() for f in futures]
     total = {}
     memories = []
-    for (m, kind, _), r in zip(jobs, results):
-        r["instances"] = children.get(m, 1) if kind == "stage" else 1
+    for (m, kind), r in zip(jobs, results):
+        prefixes = found[(m, kind)][1]
+        r["instances"] = len(prefixes)
         r["kind"] = kind
         for t, n in r["cells"].items():
             total[t] = total.get(t, 0) + n * r["instances"]
-        if kind == "glue":
-            memories += r["memories"]
-        else:  # one entry per instance, named as in the whole-top run
-            memories += [dict(x, path=f"{inst}.{x['path']}") for typ, inst in design.instances[args.top]
-                         if typ == m for x in r["memories"]]
+        # one entry per instance, named as in the whole-top run
+        memories += [dict(x, path=pre + x["path"]) for pre in prefixes for x in r["memories"]]
     worst = max(results, key=lambda r: (r["lut_levels"], r["logic_levels"]))
     return {"method": "modules", "cells": total, "resources": resources_of(total),
             "lut_levels": worst["lut_levels"], "logic_levels": worst["logic_levels"],

@@ -202,6 +202,22 @@ class DesignTest(unittest.TestCase):
                                  ("own_ext.Memory", 16, 1024, True)])
         self.assertEqual([m["path"] for m in d.memory_instances("Top", skip={"Stage"})], ["own_ext.Memory"])
 
+    def test_units_follow_the_hierarchy(self):
+        # Top -> 2 x Stage -> 3 x Leaf each: Leaf is one unit counted 6 times, under the whole-top instance names.
+        with open(os.path.join(self.dir, "Stage.sv"), "a") as fh:
+            fh.write("module Holder(input clock);\n  Leaf x (.clock(clock));\n  Leaf y (.clock(clock));\n"
+                     "  Leaf z (.clock(clock));\nendmodule\nmodule Leaf(input clock);\nendmodule\n")
+        with open(os.path.join(self.dir, "Top.sv")) as fh:
+            top = fh.read()
+        with open(os.path.join(self.dir, "Top.sv"), "w") as fh:
+            fh.write(top.replace("Stage a (", "Holder h0 (.clock(clock));\n  Holder h1 (.clock(clock));\n  Stage a ("))
+        u = flow.units(verilog_modules.Design(self.dir), "Top")
+        self.assertEqual({k: (sorted(v[0]) if v[0] is not None else None, v[1]) for k, v in u.items()}, {
+            ("Top", "glue"): (["Holder", "Stage"], [""]),
+            ("Holder", "glue"): (["Leaf"], ["h0.", "h1."]),
+            ("Leaf", "stage"): (None, ["h0.x.", "h0.y.", "h0.z.", "h1.x.", "h1.y.", "h1.z."]),
+            ("Stage", "stage"): (None, ["a.", "b."])})
+
     def test_hash_follows_submodules_only(self):
         d = verilog_modules.Design(self.dir)
         stage, top = d.content_hash("Stage", "s"), d.content_hash("Top", "s")

@@ -260,9 +260,13 @@ class DenseMatcher(p: ElasParams) extends Module {
   val slotL = Mux(flushing, 0.U, io.desc.bits.data.left)
   val slotR = Mux(flushing, 0.U, io.desc.bits.data.right)
 
-  // descriptor windows: win(i) = stream position n - i
-  val winL = Reg(Vec(D + 1, UInt(descBits.W)))
-  val winR = Reg(Vec(2 * D + 1, UInt(descBits.W)))
+  // descriptor windows and the SADs of every disparity of both views (their own module: it depends on dispMax and
+  // the descriptor size only, so the synthesis flow shares it between configurations)
+  val costs = Module(new DisparityCosts(p.descriptorBytes, D))
+  costs.io.shift := slot
+  costs.io.left := slotL
+  costs.io.right := slotR
+  costs.io.capture := adv
 
   // pixel generator: pixel P = n - dispMax enters stage A with stream position n
   val gen = Reg(new Pos)
@@ -272,10 +276,6 @@ class DenseMatcher(p: ElasParams) extends Module {
 
   when(io.desc.fire && io.desc.bits.eof) { flush := D.U }
   when(slot) {
-    winL(0) := slotL
-    for (i <- 1 to D) winL(i) := winL(i - 1)
-    winR(0) := slotR
-    for (i <- 1 to 2 * D) winR(i) := winR(i - 1)
     when(flushing) { flush := flush - 1.U }
     aValid := false.B
     when(slotSof) {
@@ -373,25 +373,10 @@ class DenseMatcher(p: ElasParams) extends Module {
     Mux(owner(0), planes(1), planes(0))
   }
 
-  /** Sum of |x_k - y_k| over the bytes. One subtractor per byte: for a negative difference d, the low 8 bits of d
-    * inverted are |d| - 1, so the sum adds the inverted bytes plus the count of negative ones (no compare, no second
-    * subtractor, no mux).
-    */
-  def sad16(x: UInt, y: UInt): UInt = {
-    val diffs = (0 until p.descriptorBytes).map(k => x(8 * k + 7, 8 * k).zext - y(8 * k + 7, 8 * k).zext)
-    val signs = diffs.map(_(8))
-    val mags = diffs.zip(signs).map { case (d, neg) => d(7, 0).asUInt ^ Fill(8, neg) }
-    VecInit(mags).reduceTree(_ +& _) +& PopCount(signs)
-  }
-  val mid = VecInit(Seq.fill(p.descriptorBytes)(128.U(8.W))).asUInt
-  val refL = winL(D)
-  val refR = winR(D)
-
   class StageB extends Bundle {
     val u = UInt(colW.W)
     val v = UInt(rowW.W)
     val live = Vec(2, Bool()) //            inside the margins and textured
-    val sad = Vec(2, Vec(D + 1, UInt(12.W)))
     val tv = Vec(2, Vec(D + 1, Bool())) //  target column legal
     val plane = Vec(2, new PlaneCoeffs(p))
     val grid = Vec(2, Vec(S, SInt(dispW.W)))
@@ -407,11 +392,9 @@ class DenseMatcher(p: ElasParams) extends Module {
     bValid := aValid
     b.u := a.u
     b.v := a.v
-    b.live(0) := inside && sad16(refL, mid) >= p.matchTexture.U
-    b.live(1) := inside && sad16(refR, mid) >= p.matchTexture.U
+    b.live(0) := inside && costs.io.texture(0) >= p.matchTexture.U
+    b.live(1) := inside && costs.io.texture(1) >= p.matchTexture.U
     for (d <- 0 to D) {
-      b.sad(0)(d) := sad16(refL, winR(D + d))
-      b.sad(1)(d) := sad16(refR, winL(D - d))
       b.tv(0)(d) := a.u >= (m + d).U
       b.tv(1)(d) := a.u +& (d + m).U <= width - 1.U
     }
@@ -449,7 +432,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   when(adv) {
     cValid := bValid
     c.live := b.live
-    c.sad := b.sad
+    c.sad := costs.io.sad
     c.tv := b.tv
     c.grid := b.grid
     c.sof := b.sof
@@ -527,6 +510,77 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
   io.out.valid := outValid
   io.out.bits := outBits
+}
+
+/** The descriptor windows of the dense stage and the SADs of all dispMax + 1 disparities of both views (see
+  * [[DenseMatcher]], "Descriptor window"). `shift` moves both windows by one stream position (left/right enter at
+  * position n); `capture` registers, for the pixel P = n - dispMax,
+  *   sad(0)(d) = SAD(descL(P), descR(P - d)),  sad(1)(d) = SAD(descR(P), descL(P + d)),
+  * and texture(v), the SAD of view v's reference against the flat descriptor (128 in every byte), is the current
+  * window's (combinational, so the caller registers it with its own decision).
+  * It depends on dispMax and the descriptor size only, so configurations that differ elsewhere share it (and its
+  * synthesis result); each SAD is a [[DescriptorSad]] instance, synthesised once.
+  */
+class DisparityCosts(descriptorBytes: Int, dispMax: Int) extends Module {
+  private val D = dispMax
+  private val descBits = 8 * descriptorBytes
+  val io = IO(new Bundle {
+    val shift = Input(Bool())
+    val left = Input(UInt(descBits.W))
+    val right = Input(UInt(descBits.W))
+    val capture = Input(Bool())
+    val sad = Output(Vec(2, Vec(D + 1, UInt(DescriptorSad.bits(descriptorBytes).W))))
+    val texture = Output(Vec(2, UInt(DescriptorSad.bits(descriptorBytes).W)))
+  })
+  // win(i) = stream position n - i
+  val winL = Reg(Vec(D + 1, UInt(descBits.W)))
+  val winR = Reg(Vec(2 * D + 1, UInt(descBits.W)))
+  when(io.shift) {
+    winL(0) := io.left
+    for (i <- 1 to D) winL(i) := winL(i - 1)
+    winR(0) := io.right
+    for (i <- 1 to 2 * D) winR(i) := winR(i - 1)
+  }
+  private def sad(x: UInt, y: UInt): UInt = {
+    val unit = Module(new DescriptorSad(descriptorBytes))
+    unit.io.x := x
+    unit.io.y := y
+    unit.io.sad
+  }
+  val flat = VecInit(Seq.fill(descriptorBytes)(128.U(8.W))).asUInt
+  val refL = winL(D)
+  val refR = winR(D)
+  val sadReg = Reg(chiselTypeOf(io.sad))
+  io.texture(0) := sad(refL, flat)
+  io.texture(1) := sad(refR, flat)
+  when(io.capture) {
+    for (d <- 0 to D) {
+      sadReg(0)(d) := sad(refL, winR(D + d))
+      sadReg(1)(d) := sad(refR, winL(D - d))
+    }
+  }
+  io.sad := sadReg
+}
+
+/** Sum of |x_k - y_k| over the bytes of two descriptors. One subtractor per byte: for a negative difference d, the
+  * low 8 bits of d inverted are |d| - 1, so the sum adds the inverted bytes plus the count of negative ones (no
+  * compare, no second subtractor, no mux).
+  */
+class DescriptorSad(descriptorBytes: Int) extends Module {
+  val io = IO(new Bundle {
+    val x = Input(UInt((8 * descriptorBytes).W))
+    val y = Input(UInt((8 * descriptorBytes).W))
+    val sad = Output(UInt(DescriptorSad.bits(descriptorBytes).W))
+  })
+  private val diffs = (0 until descriptorBytes).map(k => io.x(8 * k + 7, 8 * k).zext - io.y(8 * k + 7, 8 * k).zext)
+  private val signs = diffs.map(_(8))
+  private val mags = diffs.zip(signs).map { case (d, neg) => d(7, 0).asUInt ^ Fill(8, neg) }
+  io.sad := VecInit(mags).reduceTree(_ +& _) +& PopCount(signs)
+}
+
+object DescriptorSad {
+  /** Bits of a SAD: descriptorBytes x 255 (12 bits for 16 bytes). */
+  def bits(descriptorBytes: Int): Int = log2Ceil(descriptorBytes * 255 + 1)
 }
 
 object DenseMatcher {
