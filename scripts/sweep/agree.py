@@ -4,7 +4,8 @@ and FF within 5 %, on two points). Runs scripts/synth.sh in `both` mode on each 
 comparison to docs/sweep/agreement.json (full) or build/sweep-quick/agreement.json (quick), which report.py
 puts into docs/sweep.md.
 
-usage: agree.py --grid full|quick [POINT ...]    (full default: kitti-d255-s20-w5 tsukuba-d127-s20-w5)
+usage: agree.py --grid full|quick [POINT ...]    (full default: kitti-d63-s10-w5 tsukuba-d63-s10-w5, the two
+                                                  smallest points: a flattened whole-top run grows with dispMax)
 Exit 0 when every point agrees, 1 when one disagrees or fails (the JSON records it either way).
 """
 import argparse
@@ -21,7 +22,7 @@ import common  # noqa: E402
 import grid  # noqa: E402
 
 ROOT = common.ROOT
-DEFAULT = {"full": ["kitti-d255-s20-w5", "tsukuba-d127-s20-w5"]}
+DEFAULT = {"full": ["kitti-d63-s10-w5", "tsukuba-d63-s10-w5"]}
 TOLERANCE_PCT = 5.0
 
 
