@@ -23,7 +23,7 @@ import netlist_depth  # noqa: E402
 import verilog_modules  # noqa: E402
 
 # Bump when anything below changes what a cached result means (Yosys options, parsing, depth rules).
-FLOW_VERSION = "2"  # 2: units by hierarchy (a submodule of a stage is its own unit)
+FLOW_VERSION = "3"  # 2: units by hierarchy (a submodule of a stage is its own unit); 3: LUT-RAM write pins end paths
 SYNTH_BASE = "synth_xilinx -family xc7 -flatten -noiopad -noclkbuf"
 # LUT mapper. Default lut6: classic ABC without MUXF7/F8 "wide LUTs". With wide LUTs, ABC's choices depend on the
 # surrounding netlist, so a stage alone and the same stage in the flattened top differed by 5 % in LUTs (small);

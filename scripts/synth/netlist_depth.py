@@ -5,6 +5,8 @@ flip-flops (and reports false loops). Here paths start at module inputs and at o
 (FD*, RAMB*, DSP48*) and end at their inputs and at module outputs; each LUT1..LUT6 and each LUT-RAM/SRL read
 counts one level. CARRY4 and MUXF7/F8 count zero LUT levels but are followed; `logic_levels` counts them too
 (one each, as vendor timing reports do). The DSP48E1 is treated as fully registered (a bound, not a guarantee).
+A LUT-RAM or SRL reads combinationally only from its address pins (ADDRA..D, A*, DPRA*): its data, write-enable and
+clock pins are written at the clock edge, so a path into them ends there, as at a flip-flop's D.
 """
 import json
 import re
@@ -14,6 +16,8 @@ PASS_THROUGH_LOGIC = re.compile(r"^(CARRY4|CARRY8|MUXF[789])$")
 TRANSPARENT = re.compile(r"^(INV|BUF|IBUF|OBUF|BUFG|IBUFG|OBUFT)$")
 SEQUENTIAL = re.compile(r"^(FD[A-Z]*|LD[A-Z]*|RAMB.*|DSP48.*|URAM.*|FIFO.*)$")
 # Outputs of LUT-RAM/SRL cells by name, in case the netlist lacks port_directions.
+# The pins of a LUT-RAM/SRL whose value reaches its outputs in the same cycle (the read address).
+LUTRAM_READ_PINS = re.compile(r"^(ADDR[A-H]|A\d*|DPRA\d*)$")
 OUTPUT_NAMES = re.compile(r"^(O|O\d|Q|Q\d*|CO|DO\w*|SPO|DPO|Y|P|PCOUT|ACOUT|BCOUT|CARRYCASCOUT|MULTSIGNOUT|O[A-D])$")
 
 
@@ -46,6 +50,7 @@ def longest_path(netlist, top=None):
         w = _weights(c["type"])
         dirs = c.get("port_directions", {})
         ins = []
+        lutram = w is not None and LUT_LIKE.match(c["type"]) and not c["type"].startswith("LUT")
         for port, bits in c["connections"].items():
             d = dirs.get(port) or ("output" if OUTPUT_NAMES.match(port) else "input")
             for b in bits:
@@ -54,7 +59,7 @@ def longest_path(netlist, top=None):
                 if d == "output":
                     if w is not None:
                         driver[b] = name
-                else:
+                elif not lutram or LUTRAM_READ_PINS.match(port):
                     ins.append(b)
         if w is not None:
             weight[name] = w

@@ -57,6 +57,20 @@ class DepthTest(unittest.TestCase):
         })
         self.assertEqual(netlist_depth.longest_path(n)["lut_levels"], 2)
 
+    def test_lut_ram_write_pins_end_a_path(self):
+        # l1 -> ram.DIA (written at the clock edge: the path ends) ; l2 -> ram.ADDRA -> DOA -> l3 (2 levels + RAM)
+        ram_dirs = {"ADDRA": "input", "DIA": "input", "WE": "input", "WCLK": "input", "DOA": "output"}
+        n = netlist({
+            "l0": cell("LUT2", LUT_DIRS, I0=[1], I1=[1], O=[2]),
+            "l1": cell("LUT2", LUT_DIRS, I0=[2], I1=[2], O=[3]),
+            "l2": cell("LUT2", LUT_DIRS, I0=[1], I1=[1], O=[4]),
+            "ram": cell("RAM64M", ram_dirs, ADDRA=[4], DIA=[3], WE=[3], WCLK=[9], DOA=[5]),
+            "l3": cell("LUT2", LUT_DIRS, I0=[5], I1=[5], O=[6]),
+        })
+        r = netlist_depth.longest_path(n)
+        self.assertEqual(r["lut_levels"], 3)  # l2 -> ram -> l3, not l0 -> l1 -> ram -> l3
+        self.assertEqual(r["path"][0], "LUT2 -> (internal net)")
+
     def test_loop_is_cut_and_counted(self):
         n = netlist({"a": cell("LUT2", LUT_DIRS, I0=[2], I1=[1], O=[3]),
                      "b": cell("LUT2", LUT_DIRS, I0=[3], I1=[1], O=[2])})
