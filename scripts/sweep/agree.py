@@ -6,11 +6,13 @@ puts into docs/sweep.md.
 
 usage: agree.py --grid full|quick [POINT ...]    (full default: kitti-d63-s10-w5 tsukuba-d63-s10-w5, the two
                                                   smallest points: a flattened whole-top run grows with dispMax)
-Exit 0 when every point agrees, 1 when one disagrees or fails (the JSON records it either way).
+Exit 0 when every point agrees, 1 when one disagrees or fails (the JSON records it either way). A full-grid rerun
+reuses a recorded comparison of the same Verilog (design hash) under the same flow; --force runs it again.
 """
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -18,7 +20,9 @@ import time
 sys.dont_write_bytecode = True
 here = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, here)
+sys.path.insert(0, os.path.join(here, "..", "synth"))
 import common  # noqa: E402
+import flow  # noqa: E402
 import grid  # noqa: E402
 
 ROOT = common.ROOT
@@ -37,7 +41,7 @@ def compare(top, mods):
     return c
 
 
-def one(point, grid_dir, cache):
+def one(point, grid_dir, cache, previous=None):
     cfg = os.path.join(grid_dir, "configs", f"{point}.json")
     verilog = os.path.join(ROOT, "build", "verilog", point)
     entry = {"point": point}
@@ -50,7 +54,21 @@ def one(point, grid_dir, cache):
             entry["error"] = "elaboration: " + common.elaboration_error(proc.stdout + proc.stderr)
             return entry
     entry["design_hash"] = common.design_hash(verilog)
+    # The whole-top run is not cached (it is what the cache is checked against): a full-grid rerun reuses a recorded
+    # comparison of the same Verilog under the same flow instead of repeating a long flattened Yosys run.
+    if previous and previous.get("design_hash") == entry["design_hash"] and "comparison" in previous \
+            and previous.get("flow_version") == flow.FLOW_VERSION and previous.get("flow", "").startswith(flow.SYNTH_CMD):
+        print(f"agree: {point}: design {entry['design_hash']} already compared under this flow; reused", flush=True)
+        return previous
     out = os.path.join(grid_dir, "agree", point)
+    # A private copy: under `make -j` the point's own run may re-elaborate build/verilog/<point> meanwhile.
+    private = os.path.join(out, "verilog")
+    shutil.rmtree(private, ignore_errors=True)
+    shutil.copytree(verilog, private)
+    if common.design_hash(private) != entry["design_hash"]:
+        entry["error"] = f"{verilog} changed while it was copied; rerun"
+        return entry
+    verilog = private
     env = dict(os.environ, SYNTH_MODE="both", SYNTH_CACHE=cache, SYNTH_OUT=out,
                SYNTH_TIMEOUT=os.environ.get("SYNTH_TIMEOUT") or "3600",
                SYNTH_MEM_MB=os.environ.get("SYNTH_MEM_MB") or "8192")
@@ -63,13 +81,14 @@ def one(point, grid_dir, cache):
         return entry
     with open(os.path.join(out, "resources.json")) as fh:
         res = json.load(fh)
-    keys = ("LUT", "FF", "RAMB36E1", "RAMB18E1", "BRAM36eq", "DSP48E1")
+    keys = ("LUT", "FF", "RAMB36E1", "RAMB18E1", "BRAM36eq", "DSP48E1", "LUTRAM_sites")
     entry.update(top={k: res["top"]["resources"][k] for k in keys},
                  modules={k: res["modules"]["resources"][k] for k in keys},
                  top_seconds=res["top"]["seconds"], modules_seconds=res["modules"]["seconds"],
                  top_lut_levels=res["top"]["lut_levels"], modules_lut_levels=res["modules"]["lut_levels"],
                  stages=sorted(r["module"] for r in res["modules"]["modules"] if r["kind"] == "stage"),
-                 yosys=res["yosys"], flow=res["flow"], wall_seconds=round(time.time() - start, 1))
+                 yosys=res["yosys"], flow=res["flow"], flow_version=res.get("flow_version"),
+                 wall_seconds=round(time.time() - start, 1))
     entry["comparison"] = compare(entry["top"], entry["modules"])
     return entry
 
@@ -78,6 +97,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--grid", choices=["full", "quick"], required=True)
     ap.add_argument("points", nargs="*")
+    ap.add_argument("--force", action="store_true", help="run every point even when its comparison is recorded")
     args = ap.parse_args()
     pts = args.points or DEFAULT.get(args.grid) or [p.name for p in grid.points(args.grid)[:1]]
     for p in pts:
@@ -88,10 +108,14 @@ def main():
     else:
         grid_dir = os.path.join(ROOT, "build", "sweep-quick")
         cache, out = os.path.join(grid_dir, "cache"), os.path.join(grid_dir, "agreement.json")
+    recorded = {}
+    if args.grid == "full" and not args.force and os.path.exists(out):
+        with open(out) as fh:
+            recorded = {e["point"]: e for e in json.load(fh).get("points", [])}
     entries = []
     for p in pts:
         print(f"agree: {p}: whole top and sum of modules", flush=True)
-        e = one(p, grid_dir, cache)
+        e = one(p, grid_dir, cache, recorded.get(p))
         entries.append(e)
         if "error" in e:
             print(f"agree: {p}: {e['error']}")

@@ -20,7 +20,7 @@ COLUMNS = [
     "status", "reason",
     "config_hash", "design_hash", "generator_hash", "golden_hash", "top_stages",
     "LUT", "FF", "RAMB36E1", "RAMB18E1", "BRAM36eq", "DSP48E1", "LUTRAM_sites", "lut_levels", "bram_check",
-    "yosys", "yosys_seconds",
+    "yosys", "yosys_seconds", "lut_by_unit",
     "gen_memory_bits", "gen_memory_bram36",
     "cycles_per_frame", "cycles_per_pixel", "fps_200MHz", "latency_rows",
     "robotics_bad3", "robotics_d1", "robotics_density",

@@ -191,6 +191,10 @@ def run(point, grid_dir, force=False):
             row["bram_check"] = f"{'pass' if b['pass'] else 'FAIL'} {b['in_bram']}/{b['sync_read_memories']}"
             row["yosys"] = res["yosys"].split()[1] if len(res["yosys"].split()) > 1 else res["yosys"]
             row["yosys_seconds"] = res["modules"]["seconds"]
+            # Where the LUTs go: the units with the most LUTs in total (instances x one instance).
+            units = sorted(((u["resources"]["LUT"] * u["instances"], u["module"], u["instances"])
+                            for u in res["modules"].get("modules", [])), reverse=True)
+            row["lut_by_unit"] = " ".join(f"{m}{'*' + str(n) if n > 1 else ''}:{lut}" for lut, m, n in units[:6])
 
     # 4. cycle model
     model_file = os.path.join(configs, f"{point}.model.json")

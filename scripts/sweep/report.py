@@ -250,7 +250,7 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
 
     L += ["## Results", ""]
     cols = [("point", "point"), ("size", None), ("dispMax", "dispMax"), ("stored", "storedDisparities"),
-            ("win", "windowSize"), ("lanes s/d", None), ("LUT", "LUT"), ("FF", "FF"), ("RAMB36", "RAMB36E1"),
+            ("win", "windowSize"), ("lanes s/d", None), ("LUT", "LUT"), ("LUT-RAM", "LUTRAM_sites"), ("FF", "FF"), ("RAMB36", "RAMB36E1"),
             ("RAMB18", "RAMB18E1"), ("BRAM36eq", "BRAM36eq"), ("DSP", "DSP48E1"), ("LUT lvl", "lut_levels"),
             ("gen. memory bits", "gen_memory_bits"), ("gen. BRAM36 (capacity)", "gen_memory_bram36"),
             ("cycles/px", "cycles_per_pixel"), ("fps@200MHz", "fps_200MHz"), ("latency rows", "latency_rows"),
@@ -301,18 +301,36 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
               "Tables III-IV speed); ours are Yosys `synth_xilinx` (another mapper: compare orders of magnitude) "
               "and the cycle model at 200 MHz.", "",
               "| | size | LUT | FF | BRAM36eq | fps | latency |", "|---|---|---:|---:|---:|---:|---|"]
+        lut_note = []
         for res, point in NAMED_POINTS.items():
             pp = PAPER[res]
             L.append(f"| iELAS paper, {res} | {pp['size']} | {fmt(pp['LUT'])} | {fmt(pp['FF'])} | {pp['BRAM36eq']} "
                      f"| {pp['fps']} | over a frame (whole-frame buffers) |")
             r = by_point(rows, point)
             if r:
+                if num(r, "LUT") is not None and num(r, "LUTRAM_sites"):
+                    lut_note.append(f"{point}: {fmt(r['LUT'])} logic + {fmt(r['LUTRAM_sites'])} as memory = "
+                                    f"{fmt(num(r, 'LUT') + num(r, 'LUTRAM_sites'))}")
                 L.append(f"| this generator, {point} | {r['maxWidth']}x{r['maxHeight']} | {fmt(r.get('LUT'))} | "
                          f"{fmt(r.get('FF'))} | {fmt(r.get('BRAM36eq'))} | {fmt(r.get('fps_200MHz'))} | "
                          f"{fmt(r.get('latency_rows'))} rows{' ' + MARK if provisional else ''} |")
             else:
                 L.append(f"| this generator, {point} | | not run yet | | | | |")
         L.append("")
+        if lut_note:
+            L += ["Our LUT column counts LUTs used as logic; LUT sites used as memory (LUT-RAM, SRL) are the LUT-RAM "
+                  "column. A Vivado slice-LUT count, as the paper's presumably is, includes both: "
+                  + "; ".join(lut_note) + ".", ""]
+        for res, point in NAMED_POINTS.items():
+            r = by_point(rows, point)
+            if r and r.get("lut_by_unit") and num(r, "LUT"):
+                parts = []
+                for item in r["lut_by_unit"].split():
+                    unit, lut = item.rsplit(":", 1)
+                    parts.append(f"{unit.replace('*', ' x ')}"
+                                 f" {fmt(lut)} ({100 * float(lut) / num(r, 'LUT'):.0f} %)")
+                L.append(f"Where the LUTs go at {point} (largest units, instances x one): " + ", ".join(parts) + ".")
+                L.append("")
 
     L += ["## Sum of per-module runs vs whole-top runs", ""]
     if agreement and agreement.get("points"):
@@ -378,8 +396,12 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
           "- **lanes s/d**: support / dense SAD lanes, the lowest counts that keep 1 pixel per clock (`ElasParams."
           "supportLanesUsed` / `denseLanesUsed`).",
           "- **LUT, FF, RAMB36, RAMB18, DSP, LUT lvl**: Yosys 0.23 `synth_xilinx -family xc7 -flatten` (docs/"
-          "synthesis.md), each stage module of the top synthesised on its own and summed with the top's glue; "
-          "results cached by module Verilog hash in `docs/sweep/cache/`, so points share stages. BRAM36eq = "
+          "synthesis.md), unit by unit down the module hierarchy (each module's own logic with its submodules as "
+          "black boxes; a replicated unit such as the dense stage's `DescriptorSad` synthesised once and counted "
+          "per instance) and summed; results cached by module Verilog hash in `docs/sweep/cache/`, so points "
+          "share units. LUT counts LUT1..LUT6 used as logic; LUT-RAM counts the LUT sites of LUT-RAM and SRL "
+          "primitives (RAM64M = 4, RAM128X1D = 4, SRLC32E = 1, ...), so LUT + LUT-RAM is a Vivado-style slice-LUT "
+          "count. BRAM36eq = "
           "RAMB36 + RAMB18/2. LUT lvl = the deepest module's longest combinational path in LUT levels (a clock "
           "proxy). Each Yosys run has a time limit (SYNTH_TIMEOUT, default 3600 s) and an address-space limit "
           "(SYNTH_MEM_MB, default 8192).",
