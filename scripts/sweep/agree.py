@@ -10,6 +10,7 @@ Exit 0 when every point agrees, 1 when one disagrees or fails (the JSON records 
 reuses a recorded comparison of the same Verilog (design hash) under the same flow; --force runs it again.
 """
 import argparse
+import fcntl
 import json
 import os
 import shutil
@@ -46,13 +47,22 @@ def one(point, grid_dir, cache, previous=None):
     verilog = os.path.join(ROOT, "build", "verilog", point)
     entry = {"point": point}
     start = time.time()
-    if not os.path.isdir(verilog) or not any(f.endswith(".sv") for f in os.listdir(verilog)):
-        proc = subprocess.run(["flock", os.path.join(ROOT, "build", "sweep-sbt.lock"), "make", "--no-print-directory",
-                               "verilog", f"CONFIG={cfg}"], cwd=ROOT, capture_output=True, text=True,
-                              stdin=subprocess.DEVNULL)
+    out = os.path.join(grid_dir, "agree", point)
+    private = os.path.join(out, "verilog")
+    # Elaborate from the current sources and take a private copy, both under the sbt lock: under `make -j` the
+    # point's own run may re-elaborate build/verilog/<point> meanwhile.
+    lock_path = os.path.join(ROOT, "build", "sweep-sbt.lock")
+    os.makedirs(os.path.dirname(lock_path), exist_ok=True)
+    with open(lock_path, "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        proc = subprocess.run(["make", "--no-print-directory", "verilog", f"CONFIG={cfg}"], cwd=ROOT,
+                              capture_output=True, text=True, stdin=subprocess.DEVNULL)
         if proc.returncode != 0:
             entry["error"] = "elaboration: " + common.elaboration_error(proc.stdout + proc.stderr)
             return entry
+        shutil.rmtree(private, ignore_errors=True)
+        shutil.copytree(verilog, private)
+    verilog = private
     entry["design_hash"] = common.design_hash(verilog)
     # The whole-top run is not cached (it is what the cache is checked against): a full-grid rerun reuses a recorded
     # comparison of the same Verilog under the same flow instead of repeating a long flattened Yosys run.
@@ -60,15 +70,6 @@ def one(point, grid_dir, cache, previous=None):
             and previous.get("flow_version") == flow.FLOW_VERSION and previous.get("flow", "").startswith(flow.SYNTH_CMD):
         print(f"agree: {point}: design {entry['design_hash']} already compared under this flow; reused", flush=True)
         return previous
-    out = os.path.join(grid_dir, "agree", point)
-    # A private copy: under `make -j` the point's own run may re-elaborate build/verilog/<point> meanwhile.
-    private = os.path.join(out, "verilog")
-    shutil.rmtree(private, ignore_errors=True)
-    shutil.copytree(verilog, private)
-    if common.design_hash(private) != entry["design_hash"]:
-        entry["error"] = f"{verilog} changed while it was copied; rerun"
-        return entry
-    verilog = private
     env = dict(os.environ, SYNTH_MODE="both", SYNTH_CACHE=cache, SYNTH_OUT=out,
                SYNTH_TIMEOUT=os.environ.get("SYNTH_TIMEOUT") or "3600",
                SYNTH_MEM_MB=os.environ.get("SYNTH_MEM_MB") or "8192")
