@@ -44,3 +44,18 @@ class BankRotator(n: Int, width: Int, outputs: Int) extends Module {
   }
   for (j <- 0 until outputs) io.out(j) := rotated(j)
 }
+
+/** sadOut = sad(d) and legalOut = legal(d), d < dispMax + 1: one candidate lane's lookup into the costs of every
+  * disparity. Combinational.
+  */
+class CostLookup(dispMax: Int, sadBits: Int) extends Module {
+  val io = IO(new Bundle {
+    val sad = Input(Vec(dispMax + 1, UInt(sadBits.W)))
+    val legal = Input(Vec(dispMax + 1, Bool()))
+    val d = Input(UInt(log2Ceil(dispMax + 1).W))
+    val sadOut = Output(UInt(sadBits.W))
+    val legalOut = Output(Bool())
+  })
+  io.sadOut := io.sad(io.d)
+  io.legalOut := io.legal(io.d)
+}
