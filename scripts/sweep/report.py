@@ -147,6 +147,24 @@ def how_to_choose(rows, provisional):
     """A paragraph from the measured numbers (deltas across the grid), marked while the top is incomplete."""
     by = {r["point"]: r for r in rows}
     out = []
+    # The lead: what sets the size, from the named kitti point's largest units and the dispMax series.
+    lead = []
+    k = by.get("kitti-d255-s20-w5")
+    if k and k.get("lut_by_unit") and num(k, "LUT"):
+        units = dict(item.rsplit(":", 1) for item in k["lut_by_unit"].split())
+        sad = sum(float(v) for u, v in units.items() if u.split("*")[0] == "DescriptorSad")
+        if sad:
+            lead.append(f"dispMax sets the size: at kitti-d255-s20-w5 the DescriptorSad units (all disparities of "
+                        f"both views in the dense stage, the support lanes) are {100 * sad / num(k, 'LUT'):.0f} % of "
+                        f"the LUTs")
+    series = [by.get(f"kitti-d{d}-s20-w5") for d in (63, 127, 255)]
+    if all(r and num(r, "LUT") is not None for r in series):
+        lead.append("kitti LUT (logic) at dispMax 63 / 127 / 255: " + " / ".join(fmt(r["LUT"]) for r in series) +
+                    ", BRAM36eq " + " / ".join(fmt(r["BRAM36eq"]) for r in series))
+    if lead:
+        out.append("- **What costs what**: " + "; ".join(lead) + ". Pick the smallest dispMax that covers the "
+                   "scene's largest disparity (the accuracy columns show when a range is too short), then "
+                   "storedDisparities and the window by the deltas below: they cost far less than dispMax.")
     for res, dnamed in (("kitti", 255), ("tsukuba", 127)):
         s10, s40 = by.get(f"{res}-d{dnamed}-s10-w5"), by.get(f"{res}-d{dnamed}-s40-w5")
         d63, d255 = by.get(f"{res}-d63-s20-w5"), by.get(f"{res}-d255-s20-w5")
@@ -225,6 +243,12 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
               "that partial top, not for iELAS as a whole. Accuracy columns come from the golden `ielas` model of "
               "the whole algorithm and are final for their configuration. Rerun `make sweep SWEEP=full` when the "
               "top is complete: every point whose Verilog changed is redone, accuracy comes from the cache.", ""]
+    current = common.generator_hash()
+    stale = [r["point"] for r in rows if r.get("generator_hash") and r["generator_hash"] != current]
+    if stale and grid_name == "full":
+        L += [f"> **STALE ROWS**: {len(stale)} of the rows below ({', '.join(stale)}) were measured with older "
+              "generator sources than the ones in this tree (their `generator_hash` differs); the next `make sweep "
+              "SWEEP=full` re-elaborates them and redoes every point whose Verilog changed.", ""]
     L += [f"Points: {len(rows)} of {len(expected)} recorded, {n_ok} ok, {n_synth} with synthesis figures"
           + (f"; not yet run: {', '.join(absent)}" if absent else "") + ".",
           f"Sum of the recorded points' wall times: {fmt(sum(num(r, 'wall_seconds') or 0 for r in rows), 0)} s "

@@ -146,7 +146,9 @@ def synthesise(design, module, workdir, args, glue_children=None):
 
 
 def cached(design, module, kind, args, salt, glue_children=None):
-    key = design.content_hash(module, salt + "|" + kind)
+    # A glue unit that boxes only some of its children means something else than one boxing all of them.
+    boxed_all = glue_children is None or set(glue_children) == set(design.stages(module))
+    key = design.content_hash(module, salt + "|" + kind + ("" if boxed_all else "|boxed=" + ",".join(sorted(glue_children))))
     entry = os.path.join(args.cache, f"{module}-{kind}-{key[:16]}.json")
     # Several flows may share a cache (`make -j sweep`): one lock per key (outside the cache, which is committed),
     # so a module is synthesised once and the others wait for its result.
@@ -171,15 +173,35 @@ def cached(design, module, kind, args, salt, glue_children=None):
     return result
 
 
+# Below the top, a leaf module used fewer times than this is synthesised inside its parent: splitting off a small
+# block used once or twice saves no Yosys time and loses the optimisation across its ports (a barrel rotator
+# split from the muxes behind it cost 7 % LUTs at small). Replicated units (SAD units, cost lookups) and modules
+# with submodules of their own are units.
+REPLICATED_MIN = 8
+
+
 def units(design, top):
-    """The synthesis units below `top`, by hierarchy: a module with submodules (memory wrappers aside) is a `glue`
-    unit (its own logic, the submodules as black boxes) and each submodule is a unit in turn; a module without any
-    is a `stage` unit (flattened with its memories). Returns {(module, kind): (boxed children, [instance path
-    prefixes])}; a unit used under several parents or several times is synthesised once and counted per path."""
+    """The synthesis units below `top`, by hierarchy. Every direct child of the top is a unit (a stage); below it, a
+    module is a unit when it has submodules (memory wrappers aside) or is instantiated at least REPLICATED_MIN times
+    in the design; other modules are synthesised inside their parent. A unit with unit children is a `glue` unit (its
+    own logic and its merged children, the unit children as black boxes), else a `stage` unit (flattened with its
+    memories). Returns {(module, kind): (boxed children or None, [instance path prefixes])}; a unit used under
+    several parents or several times is synthesised once and counted per path."""
+    count = {}
+
+    def tally(module, n):
+        for child, k in design.stages(module).items():
+            count[child] = count.get(child, 0) + n * k
+            tally(child, n * k)
+    tally(top, 1)
+
+    def is_unit(child, parent):
+        return parent == top or bool(design.stages(child)) or count.get(child, 0) >= REPLICATED_MIN
+
     found = {}
 
     def walk(module, prefixes, is_top):
-        children = design.stages(module)
+        children = {c: n for c, n in design.stages(module).items() if is_unit(c, module)}
         kind = "glue" if children or is_top else "stage"
         entry = found.setdefault((module, kind), (children if kind == "glue" else None, []))
         entry[1].extend(prefixes)

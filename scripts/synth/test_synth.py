@@ -217,10 +217,13 @@ class DesignTest(unittest.TestCase):
         self.assertEqual([m["path"] for m in d.memory_instances("Top", skip={"Stage"})], ["own_ext.Memory"])
 
     def test_units_follow_the_hierarchy(self):
-        # Top -> 2 x Stage -> 3 x Leaf each: Leaf is one unit counted 6 times, under the whole-top instance names.
+        # Top -> 2 x Holder -> {3 x Leaf, 4 x Rep} each: Rep (8 instances) is one unit counted 8 times under the
+        # whole-top instance names; Leaf (6 < REPLICATED_MIN) is synthesised inside Holder.
+        self.assertEqual(flow.REPLICATED_MIN, 8)
         with open(os.path.join(self.dir, "Stage.sv"), "a") as fh:
-            fh.write("module Holder(input clock);\n  Leaf x (.clock(clock));\n  Leaf y (.clock(clock));\n"
-                     "  Leaf z (.clock(clock));\nendmodule\nmodule Leaf(input clock);\nendmodule\n")
+            fh.write("module Holder(input clock);\n" + "".join(f"  Leaf {n} (.clock(clock));\n" for n in "xyz") +
+                     "".join(f"  Rep r{i} (.clock(clock));\n" for i in range(4)) + "endmodule\n"
+                     "module Leaf(input clock);\nendmodule\nmodule Rep(input clock);\nendmodule\n")
         with open(os.path.join(self.dir, "Top.sv")) as fh:
             top = fh.read()
         with open(os.path.join(self.dir, "Top.sv"), "w") as fh:
@@ -228,8 +231,8 @@ class DesignTest(unittest.TestCase):
         u = flow.units(verilog_modules.Design(self.dir), "Top")
         self.assertEqual({k: (sorted(v[0]) if v[0] is not None else None, v[1]) for k, v in u.items()}, {
             ("Top", "glue"): (["Holder", "Stage"], [""]),
-            ("Holder", "glue"): (["Leaf"], ["h0.", "h1."]),
-            ("Leaf", "stage"): (None, ["h0.x.", "h0.y.", "h0.z.", "h1.x.", "h1.y.", "h1.z."]),
+            ("Holder", "glue"): (["Rep"], ["h0.", "h1."]),
+            ("Rep", "stage"): (None, [f"h{h}.r{i}." for h in range(2) for i in range(4)]),
             ("Stage", "stage"): (None, ["a.", "b."])})
 
     def test_hash_follows_submodules_only(self):

@@ -469,15 +469,6 @@ class DenseMatcher(p: ElasParams) extends Module {
       Mux(y.valid && (!x.valid || y.cost < x.cost), y, x)
     }
   val prior = VecInit(p.priorTable.take(R + 1).map(_.S(costW.W)))
-  /** SAD and target-column legality of disparity du (a (dispMax+1)-way lookup per candidate lane: its own module,
-    * so the synthesis flow synthesises it once per dispMax). */
-  def lookup(view: Int, du: UInt): (UInt, Bool) = {
-    val unit = Module(new CostLookup(D, DescriptorSad.bits(p.descriptorBytes)))
-    unit.io.sad := c.sad(view)
-    unit.io.legal := c.tv(view)
-    unit.io.d := du
-    (unit.io.sadOut, unit.io.legalOut)
-  }
   val result = (0 until 2).map { view =>
     val lo = c.lo(view)
     val hi = c.hi(view)
@@ -487,10 +478,9 @@ class DenseMatcher(p: ElasParams) extends Module {
       val present = listLive(k) // the list ends at the first -1
       val du = d.asUInt(p.dispBits - 1, 0)
       val inRange = !c.empty(view) && du >= lo && du <= hi
-      val (sad, legal) = lookup(view, du)
       val x = Wire(new Cand)
-      x.valid := present && !inRange && legal
-      x.cost := sad.zext
+      x.valid := present && !inRange && c.tv(view)(du)
+      x.cost := c.sad(view)(du).zext
       x.d := du
       x
     }
@@ -499,10 +489,9 @@ class DenseMatcher(p: ElasParams) extends Module {
       val du = d(p.dispBits - 1, 0)
       val delta = c.off(view) + i.S
       val absDelta = Mux(delta < 0.S, (-delta).asUInt, delta.asUInt)
-      val (sad, legal) = lookup(view, du)
       val x = Wire(new Cand)
-      x.valid := !c.empty(view) && d <= hi && legal
-      x.cost := sad.zext + Mux(c.priorOn(view), prior(absDelta(log2Ceil(R + 1) - 1, 0)), 0.S)
+      x.valid := !c.empty(view) && d <= hi && c.tv(view)(du)
+      x.cost := c.sad(view)(du).zext + Mux(c.priorOn(view), prior(absDelta(log2Ceil(R + 1) - 1, 0)), 0.S)
       x.d := du
       x
     }

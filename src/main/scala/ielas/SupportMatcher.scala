@@ -16,9 +16,8 @@ import chisel3.util._
   * `slots` lattice rows, the two descriptor rows of both views (128 bits per pixel) and one texture bit per pixel
   * and view. The descriptor rows are split into `banks` column-interleaved memories (bank = x mod banks) so one
   * cycle reads `banks` consecutive columns: the L lanes of a sweep need target columns t - r .. t + r of L
-  * consecutive disparities, i.e. L + 2r consecutive columns. One [[BankRotator]] per view and row puts the banks
-  * in column order (log2(banks) mux levels, instead of a banks-way mux per column), and each lane's four window
-  * SADs are [[DescriptorSad]] units.
+  * consecutive disparities, i.e. L + 2r consecutive columns. One barrel rotation per view and row puts the banks
+  * in column order (log2(banks) mux levels, instead of a banks-way mux per column).
   *   descriptor buffer bits = 2 rows x 2 views x slots x banks x ceil(maxWidth / banks) x 128
   *   texture buffer bits    = slots x maxWidth x 2
   * (kitti: slots 2, banks 32 -> 1,277,952 + 4,968 bits). slots = the smallest K with (K-1)*step >= 2r + 1: the top
@@ -169,12 +168,8 @@ class SupportMatcher(p: ElasParams) extends Module {
     (data, RegNext(startLow))
   }
   /** The columns 0 .. L - 1 + 2r of a window read last cycle: column k is bank (startLow + k) mod banks. */
-  def windowColumns(data: Seq[UInt], startLow: UInt): Vec[UInt] = {
-    val rot = Module(new BankRotator(banks, descBits, lanes + 2 * r))
-    rot.io.in := VecInit(data)
-    rot.io.amount := startLow
-    rot.io.out
-  }
+  def windowColumns(data: Seq[UInt], startLow: UInt): Seq[UInt] =
+    SupportMatcher.rotate(data, startLow).take(lanes + 2 * r)
 
   val uRefS = uRef.zext.pad(colW)
   val baseS = base.zext.pad(colW)
@@ -213,18 +208,12 @@ class SupportMatcher(p: ElasParams) extends Module {
 
   val leftColumns = (0 until 2).map(kind => windowColumns(leftData(kind), leftLow))
   val rightColumns = (0 until 2).map(kind => windowColumns(rightData(kind), rightLow))
-  def sad(x: UInt, y: UInt): UInt = {
-    val unit = Module(new DescriptorSad(p.descriptorBytes))
-    unit.io.x := x
-    unit.io.y := y
-    unit.io.sad
-  }
   val laneBest = (0 until lanes).map { k =>
     val cost = (0 until 2).map { kind =>
       def ref(k2: Int) = Mux(s1Left, leftColumns(kind)(k2), rightColumns(kind)(k2))
       // left reference: target window starts at column u - base - (L-1) - r, so lane k's t - r is at L-1-k
       def tgt(k2L: Int, k2R: Int) = Mux(s1Left, rightColumns(kind)(k2L), leftColumns(kind)(k2R))
-      sad(ref(0), tgt(lanes - 1 - k, k)) +& sad(ref(2 * r), tgt(lanes - 1 - k + 2 * r, k + 2 * r))
+      SupportMatcher.sad(ref(0), tgt(lanes - 1 - k, k)) +& SupportMatcher.sad(ref(2 * r), tgt(lanes - 1 - k + 2 * r, k + 2 * r))
     }.reduce(_ +& _)
     val d = s1Base + k.U
     best(Mux(d <= s1Dhi, cost, costInf), d, costInf)
@@ -331,6 +320,23 @@ object SupportMatcher {
     val (lo, hi) = xs.splitAt(xs.length / 2)
     sumTree(lo) +& sumTree(hi)
   }
+
+  /** Sum of |a_k - b_k| over the bytes of two descriptors. */
+  def sad(a: UInt, b: UInt): UInt = {
+    val n = a.getWidth / 8
+    sumTree((0 until n).map { k =>
+      val (x, y) = (a(8 * k + 7, 8 * k), b(8 * k + 7, 8 * k))
+      Mux(x > y, x - y, y - x)
+    })
+  }
+
+  /** out(j) = in((amount + j) mod n), n a power of two: a log2(n)-stage barrel rotator (n x width x log2 n two-way
+    * muxes for all columns, instead of one n-way mux per column).
+    */
+  def rotate(in: Seq[UInt], amount: UInt): Seq[UInt] =
+    (0 until log2Ceil(in.length)).foldLeft(in) { (cur, s) =>
+      cur.indices.map(j => Mux(amount(s), cur((j + (1 << s)) % cur.length), cur(j)))
+    }
 
   /** texture = sum_k |byte_k - 128|. */
   def texture(a: UInt): UInt = {
