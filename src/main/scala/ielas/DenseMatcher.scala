@@ -73,7 +73,6 @@ class DenseMatcher(p: ElasParams) extends Module {
   private val G = p.gridSize
   private val K = DenseMatcher.rasterCells(p)
   private val cellsMax = p.latticeColsMax - 1
-  private val descBits = 8 * p.descriptorBytes
   private val colW = p.colBits
   private val rowW = p.rowBits
   private val cellW = log2Ceil(cellsMax + K + 1) + 1
