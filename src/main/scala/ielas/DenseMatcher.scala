@@ -26,11 +26,11 @@ import chisel3.util._
   *   window registers = (dispMax + 1 + 2 dispMax + 1) x 128 bits   (small: 95 x 128; kitti: 767 x 128)
   *   SAD16 units      = 2 (dispMax + 1) per clock (all disparities of both views, so every candidate set is
   *                      served at one pixel per clock; denseLanes / denseLanesUsed are not used by this structure)
-  * Measured (Yosys 0.23 synth_xilinx xc7, lut6 mapper, this module alone at `small`, dispMax 31): 38.5k LUT,
-  * 12.0k FF, 248 RAM32M, no BRAM/DSP; most LUTs are the 64 SAD16 units (one subtractor per byte). The per-lane
-  * alternative needs 2 (2R+1 + storedDisparities) = 50 descriptor muxes of 128 bits, (dispMax+1):1 each: about
-  * 50 x 128 x 11 = 70k LUT6 at small and 50 x 128 x 85 = 544k at kitti, against 8x the SAD part of this
-  * structure at kitti (512 units; by scaling on the order of 200k LUT; not synthesised). A further halving is possible:
+  * The windows and SADs are the [[DisparityCosts]] submodule (2 (dispMax + 1) + 2 [[DescriptorSad]] units); this
+  * module keeps the candidate cost lookups. Per configuration, the LUTs of each (docs/sweep.md, "Where the LUTs go";
+  * docs/synthesis.md) are measured by `make sweep`. The per-lane alternative needs 2 (2R+1 + storedDisparities) = 50
+  * descriptor muxes of 128 bits, (dispMax+1):1 each: about 50 x 128 x 85 = 544k LUT6 at kitti (dispMax 255), more
+  * than the whole SAD-per-disparity structure. A further area step is possible:
   * the right view's cost at (P, d) equals the left view's at (P + d, d), so a per-d delay line of dispMax - d
   * steps (12 bits, SRL-friendly) could replace the right view's SAD units, at the price of evaluating the two
   * views dispMax pixels apart (one rasteriser, plane and grid read per view position).
