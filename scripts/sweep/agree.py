@@ -10,10 +10,8 @@ Exit 0 when every point agrees, 1 when one disagrees or fails (the JSON records 
 reuses a recorded comparison of the same Verilog (design hash) under the same flow; --force runs it again.
 """
 import argparse
-import fcntl
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
@@ -25,6 +23,7 @@ sys.path.insert(0, os.path.join(here, "..", "synth"))
 import common  # noqa: E402
 import flow  # noqa: E402
 import grid  # noqa: E402
+import point  # noqa: E402
 
 ROOT = common.ROOT
 DEFAULT = {"full": ["kitti-d63-s10-w5", "tsukuba-d63-s10-w5"]}
@@ -49,19 +48,13 @@ def one(point, grid_dir, cache, previous=None):
     start = time.time()
     out = os.path.join(grid_dir, "agree", point)
     private = os.path.join(out, "verilog")
-    # Elaborate from the current sources and take a private copy, both under the sbt lock: under `make -j` the
-    # point's own run may re-elaborate build/verilog/<point> meanwhile.
-    lock_path = os.path.join(ROOT, "build", "sweep-sbt.lock")
-    os.makedirs(os.path.dirname(lock_path), exist_ok=True)
-    with open(lock_path, "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        proc = subprocess.run(["make", "--no-print-directory", "verilog", f"CONFIG={cfg}"], cwd=ROOT,
-                              capture_output=True, text=True, stdin=subprocess.DEVNULL)
-        if proc.returncode != 0:
-            entry["error"] = "elaboration: " + common.elaboration_error(proc.stdout + proc.stderr)
-            return entry
-        shutil.rmtree(private, ignore_errors=True)
-        shutil.copytree(verilog, private)
+    # Elaborate from the current sources and take a private copy under the sbt lock: under `make -j` the point's own
+    # run may re-elaborate build/verilog/<point> meanwhile.
+    os.makedirs(out, exist_ok=True)
+    _, err = point.elaborate(cfg, verilog, out, int(os.environ.get("SWEEP_ELAB_TIMEOUT") or "3600"), copy_to=private)
+    if err:
+        entry["error"] = err
+        return entry
     verilog = private
     entry["design_hash"] = common.design_hash(verilog)
     # The whole-top run is not cached (it is what the cache is checked against): a full-grid rerun reuses a recorded

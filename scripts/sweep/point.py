@@ -61,8 +61,9 @@ def git_commit():
         return "unknown"
 
 
-def elaborate(cfg, verilog_dir, work, timeout):
-    """`make verilog` for the configuration; returns (log text, error or None). sbt runs one at a time."""
+def elaborate(cfg, verilog_dir, work, timeout, copy_to=None):
+    """`make verilog` for the configuration; returns (log text, error or None). sbt runs one at a time. copy_to
+    takes a private copy of the Verilog before the lock is released (another run may re-elaborate the directory)."""
     cmd = env("SWEEP_VERILOG_CMD", "make --no-print-directory verilog CONFIG={config}").format(
         config=cfg, verilog=verilog_dir)
     lock_path = env("SWEEP_SBT_LOCK", os.path.join(ROOT, "build", "sweep-sbt.lock"))
@@ -75,6 +76,9 @@ def elaborate(cfg, verilog_dir, work, timeout):
                                   capture_output=True, text=True, stdin=subprocess.DEVNULL)
         except OSError as e:
             return "", f"elaboration: {e}"
+        if proc.returncode == 0 and copy_to:
+            shutil.rmtree(copy_to, ignore_errors=True)
+            shutil.copytree(verilog_dir, copy_to)
     text = proc.stdout + proc.stderr
     with open(os.path.join(work, "verilog.log"), "w") as fh:
         fh.write(f"$ {cmd}\n{text}")

@@ -239,6 +239,19 @@ class PointRunnerTest(unittest.TestCase):
         self.assertNotIn("up to date", out)
         self.assertEqual(self.rows()[ok]["storedDisparities"], "21")
 
+    def test_elaborate_copies_the_verilog_only_when_it_succeeds(self):
+        work, vdir, copy = (os.path.join(self.dir, n) for n in ("work", "v", "copy"))
+        os.makedirs(work)
+        cfg = os.path.join(self.grid_dir, "configs", "quick-small-d15-s10-w5.json")
+        _, err = point.elaborate(cfg, vdir, work, 60, copy_to=copy)
+        self.assertIsNone(err)
+        self.assertEqual(sorted(os.listdir(copy)), ["Descriptor.sv", "IElas.sv"])
+        self.assertEqual(common.design_hash(copy), common.design_hash(vdir))
+        shutil.rmtree(copy)
+        _, err = point.elaborate(cfg.replace("-w5", "-w7"), vdir, work, 60, copy_to=copy)
+        self.assertIn("windowSize = 7 is not supported", err)
+        self.assertFalse(os.path.exists(copy))
+
     def test_missing_data_is_a_recorded_failure(self):
         os.environ["IELAS_DATA"] = os.path.join(self.dir, "nowhere")
         self.run_point("quick-small-d15-s10-w5")
