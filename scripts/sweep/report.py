@@ -31,6 +31,8 @@ NAMED_POINTS = {"kitti": "kitti-d255-s20-w5", "tsukuba": "tsukuba-d127-s20-w5"}
 STAGE_KEYWORDS = ["descriptor", "support", "filter", "lattice|interp|fill", "grid", "plane", "dense", "lr",
                   "post"]
 MARK = "**PROVISIONAL**"
+# The paper's device (XC7VX485T on the VC707): slice LUTs, for "does it fit" (logic LUTs + LUT-RAM/SRL sites).
+PAPER_DEVICE = {"name": "XC7VX485T", "LUT": 303600, "BRAM36": 1030}
 
 
 def num(row, k):
@@ -165,6 +167,39 @@ def how_to_choose(rows, provisional):
         out.append("- **What costs what**: " + "; ".join(lead) + ". Pick the smallest dispMax that covers the "
                    "scene's largest disparity (the accuracy columns show when a range is too short), then "
                    "storedDisparities and the window by the deltas below: they cost far less than dispMax.")
+    fits = []
+    for res in ("kitti", "tsukuba"):
+        pts = [by.get(f"{res}-d{d}-s20-w5") for d in (63, 127, 255)]
+        pts = [r for r in pts if r and num(r, "LUT") is not None]
+        if pts:
+            fits.append(f"{res} " + ", ".join(
+                f"d{r['dispMax']} {fmt(num(r, 'LUT') + (num(r, 'LUTRAM_sites') or 0))}"
+                + ("" if num(r, "LUT") + (num(r, "LUTRAM_sites") or 0) <= PAPER_DEVICE["LUT"]
+                   and num(r, "BRAM36eq") <= PAPER_DEVICE["BRAM36"] else " (does not fit)") for r in pts))
+            fits[-1] = fits[-1].replace(f"{res} d", f"{res}: d")
+    if fits:
+        out.append(f"- **Device**: slice LUTs (logic + LUT-RAM sites) at storedDisparities 20 against the paper's "
+                   f"{PAPER_DEVICE['name']} ({fmt(PAPER_DEVICE['LUT'])} LUT, {PAPER_DEVICE['BRAM36']} BRAM36): "
+                   + "; ".join(fits) + ". Yosys' counts are an estimate of Vivado's, so leave margin.")
+    levels = [(num(r, "lut_levels"), r["point"]) for r in rows if num(r, "lut_levels") is not None]
+    if levels:
+        lo, hi = min(levels), max(levels)
+        out.append(f"- **Clock**: the fps column is the cycle model at an assumed 200 MHz. The clock proxy says the "
+                   f"RTL is not there yet: the longest path is {fmt(lo[0])} to {fmt(hi[0])} LUT levels ({hi[1]}; "
+                   "docs/synthesis.md: the post-processing row ring's slot arithmetic at kitti, the speckle stage's region "
+                   "bookkeeping through its LUT-RAM at tsukuba), where a 5 ns period leaves room for roughly 5-8 levels "
+                   "of LUT and routing on a 7-series part (a rule of thumb, not measured here); expect a fraction of "
+                   "that clock until those paths are pipelined.")
+    for res in ("kitti", "tsukuba"):
+        pts = [by.get(f"{res}-d{d}-s20-w5") for d in (63, 127, 255)]
+        pts = [r for r in pts if r and num(r, "BRAM36eq") is not None and num(r, "LUTRAM_sites") is not None]
+        for a, b in zip(pts, pts[1:]):
+            if num(b, "BRAM36eq") < num(a, "BRAM36eq") and num(b, "LUTRAM_sites") > num(a, "LUTRAM_sites"):
+                out.append(f"- **BRAM is not monotonic** at {res}: dispMax {a['dispMax']} -> {b['dispMax']} takes "
+                           f"BRAM36eq {fmt(a['BRAM36eq'])} -> {fmt(b['BRAM36eq'])} while LUT-RAM sites go "
+                           f"{fmt(a['LUTRAM_sites'])} -> {fmt(b['LUTRAM_sites'])}: the support matcher's row banks "
+                           "(more banks with more lanes, so fewer words each) became shallow enough for Yosys to map "
+                           "them to LUT-RAM. Where block RAM is the scarcer resource this is the cheaper point.")
     for res, dnamed in (("kitti", 255), ("tsukuba", 127)):
         s10, s40 = by.get(f"{res}-d{dnamed}-s10-w5"), by.get(f"{res}-d{dnamed}-s40-w5")
         d63, d255 = by.get(f"{res}-d63-s20-w5"), by.get(f"{res}-d255-s20-w5")
@@ -174,7 +209,8 @@ def how_to_choose(rows, provisional):
             parts.append(f"storedDisparities 10 -> 40 costs {num(s40, 'BRAM36eq') - num(s10, 'BRAM36eq'):+g} BRAM36 "
                          f"and {num(s40, 'LUT') - num(s10, 'LUT'):+g} LUT at dispMax {dnamed}")
         if s10 and s40 and num(s10, "robotics_bad3") is not None and num(s40, "robotics_bad3") is not None:
-            parts.append(f"and moves bad-3 by {num(s40, 'robotics_bad3') - num(s10, 'robotics_bad3'):+.2f} points "
+            lead_in = "and moves" if parts else "storedDisparities 10 -> 40 moves"
+            parts.append(f"{lead_in} bad-3 by {num(s40, 'robotics_bad3') - num(s10, 'robotics_bad3'):+.2f} points "
                          f"(robotics) / {num(s40, 'middlebury_bad3') - num(s10, 'middlebury_bad3'):+.2f} (middlebury)")
         if d63 and d255 and num(d63, "LUT") is not None and num(d255, "LUT") is not None:
             parts.append(f"dispMax 63 -> 255 costs {num(d255, 'LUT') - num(d63, 'LUT'):+g} LUT and "

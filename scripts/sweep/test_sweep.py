@@ -330,6 +330,20 @@ class ReportAndCheckTest(unittest.TestCase):
                                        "DenseMatcher+LrCheck+PostProcess") for r in rows]
         self.assertNotIn(report.MARK, report.markdown(complete, None, [], "full", None, "/tmp"))
 
+    def test_choose_names_the_device_fit_the_clock_and_a_bram_to_lutram_move(self):
+        rows = fake_rows()
+        by = {r["point"]: r for r in rows}
+        by["kitti-d63-s20-w5"].update(LUT="200000", LUTRAM_sites="50000", lut_levels="59")
+        by["kitti-d127-s20-w5"].update(LUT="300000", LUTRAM_sites="50000")
+        by["tsukuba-d63-s20-w5"].update(BRAM36eq="180", LUTRAM_sites="26000")
+        by["tsukuba-d127-s20-w5"].update(BRAM36eq="54.5", LUTRAM_sites="49000")
+        text = report.how_to_choose(rows, False)
+        self.assertIn("kitti: d63 250 000, d127 350 000 (does not fit)", text)  # 303 600 LUT on the XC7VX485T
+        self.assertIn("the longest path is 8 to 59 LUT levels (kitti-d63-s20-w5", text)
+        self.assertIn("at tsukuba: dispMax 63 -> 127 takes BRAM36eq 180 -> 54.5 while LUT-RAM sites go 26 000 -> "
+                      "49 000", text)
+        self.assertNotIn("BRAM is not monotonic** at kitti", text)
+
     def test_hardware_check_section(self):
         hw = {"points": [{"point": "kitti-d255-s20-w5", "stage": "descriptor", "pair": "k", "size": "1241x376",
                           "values_compared": 100, "bit_exact": True, "cycles_measured": 10, "cycles_model": 11,
