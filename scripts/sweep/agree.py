@@ -23,7 +23,7 @@ sys.path.insert(0, os.path.join(here, "..", "synth"))
 import common  # noqa: E402
 import flow  # noqa: E402
 import grid  # noqa: E402
-import point  # noqa: E402
+import point as sweep_point  # noqa: E402
 
 ROOT = common.ROOT
 DEFAULT = {"full": ["kitti-d63-s10-w5", "tsukuba-d63-s10-w5"]}
@@ -43,7 +43,7 @@ def compare(top, mods):
 
 def one(point, grid_dir, cache, previous=None):
     cfg = os.path.join(grid_dir, "configs", f"{point}.json")
-    verilog = os.path.join(ROOT, "build", "verilog", point)
+    verilog = os.path.join(sweep_point.env("SWEEP_VERILOG_ROOT", os.path.join(ROOT, "build", "verilog")), point)
     entry = {"point": point}
     start = time.time()
     out = os.path.join(grid_dir, "agree", point)
@@ -51,7 +51,8 @@ def one(point, grid_dir, cache, previous=None):
     # Elaborate from the current sources and take a private copy under the sbt lock: under `make -j` the point's own
     # run may re-elaborate build/verilog/<point> meanwhile.
     os.makedirs(out, exist_ok=True)
-    _, err = point.elaborate(cfg, verilog, out, int(os.environ.get("SWEEP_ELAB_TIMEOUT") or "3600"), copy_to=private)
+    _, err = sweep_point.elaborate(cfg, verilog, out, int(sweep_point.env("SWEEP_ELAB_TIMEOUT", "3600")),
+                                   copy_to=private)
     if err:
         entry["error"] = err
         return entry

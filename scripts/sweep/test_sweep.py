@@ -252,6 +252,21 @@ class PointRunnerTest(unittest.TestCase):
         self.assertIn("windowSize = 7 is not supported", err)
         self.assertFalse(os.path.exists(copy))
 
+    def test_agree_elaborates_a_private_copy_and_reuses_a_recorded_comparison(self):
+        name = "quick-small-d15-s10-w5"
+        cfg = os.path.join(self.grid_dir, "configs", name + ".json")
+        probe = os.path.join(self.dir, "probe")
+        os.makedirs(probe)
+        self.assertIsNone(point.elaborate(cfg, os.path.join(probe, "v"), probe, 60)[1])
+        recorded = {"point": name, "design_hash": common.design_hash(os.path.join(probe, "v")),
+                    "comparison": {"agree": True}, "flow_version": agree.flow.FLOW_VERSION,
+                    "flow": agree.flow.SYNTH_CMD}
+        with redirect_stdout(io.StringIO()) as out:
+            self.assertIs(agree.one(name, self.grid_dir, os.path.join(self.dir, "cache"), recorded), recorded)
+        self.assertIn("already compared under this flow; reused", out.getvalue())
+        self.assertTrue(os.path.exists(os.path.join(self.grid_dir, "agree", name, "verilog", "IElas.sv")))
+        self.assertTrue(os.path.exists(os.path.join(self.vroot, name, "IElas.sv")))  # not build/verilog
+
     def test_missing_data_is_a_recorded_failure(self):
         os.environ["IELAS_DATA"] = os.path.join(self.dir, "nowhere")
         self.run_point("quick-small-d15-s10-w5")
