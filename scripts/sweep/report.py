@@ -174,7 +174,7 @@ def how_to_choose(rows, provisional):
         if pts:
             fits.append(f"{res} " + ", ".join(
                 f"d{r['dispMax']} {fmt(num(r, 'LUT') + (num(r, 'LUTRAM_sites') or 0))}"
-                + ("" if num(r, "LUT") + (num(r, "LUTRAM_sites") or 0) <= PAPER_DEVICE["LUT"]
+                + (" (fits)" if num(r, "LUT") + (num(r, "LUTRAM_sites") or 0) <= PAPER_DEVICE["LUT"]
                    and num(r, "BRAM36eq") <= PAPER_DEVICE["BRAM36"] else " (does not fit)") for r in pts))
             fits[-1] = fits[-1].replace(f"{res} d", f"{res}: d")
     if fits:
@@ -306,7 +306,12 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
           "A point is a configuration JSON written by the generator itself (`sbt \"run config DIR NAME:BASE:KEY=VALUE,...\"`,"
           " from `ElasParams`: SAD lanes and every other value derived there). For a batch scheduler: run "
           "`make sweep-configs` once, then `make sweep-point POINT=$NAME` per task, then `make sweep SWEEP=full` "
-          "(it skips every recorded point) for the check and this page.", ""]
+          "(it skips every recorded point) for the check and this page.", "",
+          "Memory: `SYNTH_MEM_MB` caps each Yosys run (default 8192). The largest single run is the dense stage's "
+          "glue at dispMax 255: about 7.4 GB at storedDisparities 20 and about 12 GB at 40. On a 23 GB, 2-core "
+          "machine the grid ran as `make -j2 sweep SWEEP=full SYNTH_MEM_MB=10000`; the two d255-s40 points, "
+          "recorded as failed at that cap, were then rerun one at a time with `make sweep-point POINT=... FORCE=1 "
+          "SYNTH_MEM_MB=16000`.", ""]
 
     L += ["## Results", ""]
     cols = [("point", "point"), ("size", None), ("dispMax", "dispMax"), ("stored", "storedDisparities"),

@@ -353,7 +353,7 @@ class ReportAndCheckTest(unittest.TestCase):
         by["tsukuba-d63-s20-w5"].update(BRAM36eq="180", LUTRAM_sites="26000")
         by["tsukuba-d127-s20-w5"].update(BRAM36eq="54.5", LUTRAM_sites="49000")
         text = report.how_to_choose(rows, False)
-        self.assertIn("kitti: d63 250 000, d127 350 000 (does not fit)", text)  # 303 600 LUT on the XC7VX485T
+        self.assertIn("kitti: d63 250 000 (fits), d127 350 000 (does not fit)", text)  # 303 600 LUT on the XC7VX485T
         self.assertIn("the longest path is 8 to 59 LUT levels (kitti-d63-s20-w5", text)
         self.assertIn("at tsukuba: dispMax 63 -> 127 takes BRAM36eq 180 -> 54.5 while LUT-RAM sites go 26 000 -> "
                       "49 000", text)
