@@ -35,11 +35,18 @@ case "${1:-}" in
     snapshot() { { find docs/sweep docs/sweep.md -type f -printf '%p %s %T@\n' 2>/dev/null || true; } | sort | sha256sum; }
     before="$(snapshot)"
     "$0" configs quick
+    # Sum of per-module runs vs the whole top, on one quick point (the committed check runs on two full points).
+    # Its whole-top Yosys run is the longest single step, so it runs beside the points (2 cores in CI).
+    python3 scripts/sweep/agree.py --grid quick > "$d/agree.log" 2>&1 &
+    agree_pid=$!
+    trap 'kill "$agree_pid" 2>/dev/null || true' EXIT  # a failing point must not leave it running
     for p in $(python3 scripts/sweep/grid.py names quick); do
       python3 scripts/sweep/point.py "$p" --force
     done
-    # Sum of per-module runs vs the whole top, on one quick point (the committed check runs on two full points).
-    python3 scripts/sweep/agree.py --grid quick
+    agree_rc=0
+    wait "$agree_pid" || agree_rc=$?
+    cat "$d/agree.log"
+    [ "$agree_rc" -eq 0 ] || die "agree.py failed (exit $agree_rc): the sum of modules and the whole top disagree or a run failed"
     "$PY" scripts/sweep/report.py --grid quick --wall "$(( $(date +%s) - start ))"
     python3 scripts/sweep/check.py --grid quick
     [ "$(snapshot)" = "$before" ] || die "SWEEP=quick changed docs/sweep/ (it must write only under $d)"
