@@ -167,16 +167,15 @@ def how_to_choose(rows, provisional):
         out.append("- **What costs what**: " + "; ".join(lead) + ". Pick the smallest dispMax that covers the "
                    "scene's largest disparity (the accuracy columns show when a range is too short), then "
                    "storedDisparities and the window by the deltas below: they cost far less than dispMax.")
+    s20 = {res: [r for r in (by.get(f"{res}-d{d}-s20-w5") for d in (63, 127, 255)) if r] for res in ("kitti", "tsukuba")}
     fits = []
-    for res in ("kitti", "tsukuba"):
-        pts = [by.get(f"{res}-d{d}-s20-w5") for d in (63, 127, 255)]
-        pts = [r for r in pts if r and num(r, "LUT") is not None]
-        if pts:
-            fits.append(f"{res} " + ", ".join(
-                f"d{r['dispMax']} {fmt(num(r, 'LUT') + (num(r, 'LUTRAM_sites') or 0))}"
-                + (" (fits)" if num(r, "LUT") + (num(r, "LUTRAM_sites") or 0) <= PAPER_DEVICE["LUT"]
-                   and num(r, "BRAM36eq") <= PAPER_DEVICE["BRAM36"] else " (does not fit)") for r in pts))
-            fits[-1] = fits[-1].replace(f"{res} d", f"{res}: d")
+    for res, pts in s20.items():
+        slice_luts = [(r, num(r, "LUT") + (num(r, "LUTRAM_sites") or 0)) for r in pts if num(r, "LUT") is not None]
+        if slice_luts:
+            fits.append(f"{res}: " + ", ".join(
+                f"d{r['dispMax']} {fmt(n)}" + (" (fits)" if n <= PAPER_DEVICE["LUT"] and num(r, "BRAM36eq")
+                                               <= PAPER_DEVICE["BRAM36"] else " (does not fit)")
+                for r, n in slice_luts))
     if fits:
         out.append(f"- **Device**: slice LUTs (logic + LUT-RAM sites) at storedDisparities 20 against the paper's "
                    f"{PAPER_DEVICE['name']} ({fmt(PAPER_DEVICE['LUT'])} LUT, {PAPER_DEVICE['BRAM36']} BRAM36): "
@@ -190,9 +189,8 @@ def how_to_choose(rows, provisional):
                    "bookkeeping through its LUT-RAM at tsukuba), where a 5 ns period leaves room for roughly 5-8 levels "
                    "of LUT and routing on a 7-series part (a rule of thumb, not measured here); expect a fraction of "
                    "that clock until those paths are pipelined.")
-    for res in ("kitti", "tsukuba"):
-        pts = [by.get(f"{res}-d{d}-s20-w5") for d in (63, 127, 255)]
-        pts = [r for r in pts if r and num(r, "BRAM36eq") is not None and num(r, "LUTRAM_sites") is not None]
+    for res, pts in s20.items():
+        pts = [r for r in pts if num(r, "BRAM36eq") is not None and num(r, "LUTRAM_sites") is not None]
         for a, b in zip(pts, pts[1:]):
             if num(b, "BRAM36eq") < num(a, "BRAM36eq") and num(b, "LUTRAM_sites") > num(a, "LUTRAM_sites"):
                 out.append(f"- **BRAM is not monotonic** at {res}: dispMax {a['dispMax']} -> {b['dispMax']} takes "
