@@ -26,7 +26,7 @@ VERILOG_DIR = build/verilog/$(CONFIG_NAME)
 
 .PHONY: help deps deps-sim deps-golden deps-synth configs golden golden-test verilog lint simulate compare run \
         test test-golden test-hw test-full bench eval synth sweep clean \
-        sweep-configs sweep-point sweep-hwcheck test-sweep test-sim
+        sweep-configs sweep-point sweep-hwcheck test-sweep test-sim timing
 
 help: ## this list
 	@echo "Streaming iELAS stereo accelerator generator"
@@ -113,6 +113,11 @@ bench: deps-sim golden ## cycles/pixel, latency, fps, simulator speed at kitti a
 synth: deps-synth ## Yosys resource table for one configuration
 	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
 	scripts/synth.sh $(CONFIG) $(VERILOG_DIR)
+
+timing: CONFIG = small
+timing: deps-synth ## ECP5 post-route fmax and 7-series logic-only STA per stage (CONFIG default small) -> docs/timing.md
+	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
+	scripts/timing/timing.sh $(CONFIG) $(VERILOG_DIR)
 
 # ---- parameter sweep (docs/sweep.md; scripts/sweep.sh, scripts/sweep/) ----
 # Each point is one target, so `make -j N sweep SWEEP=full` runs points in parallel (sbt steps take turns on a lock;

