@@ -84,6 +84,10 @@ class DenseMatcher(p: ElasParams) extends Module {
   private val spanW = DenseMatcher.spanBits(p)
   private val dispW = p.dispBits + 1 // signed disparity, -1 invalid
   private val offW = log2Ceil(3 * R + 1) + 2 // lo - d_p + i for i <= 2R, signed
+  private val descBits = 8 * p.descriptorBytes
+  private val lanes = p.denseCandidates //     S grid lanes + 2R + 1 plane-range lanes per view
+  private val ringDepth = DenseMatcher.ringDepth(p)
+  private val ringW = log2Ceil(ringDepth)
   private val costW = 14 //             SAD16 <= 4080 plus a prior >= -4096 fits 14 signed bits
   require(p.priorTable.take(R + 1).forall(v => v >= -(1 << 12) && v < (1 << 12)),
     s"priorTable entries 0..planeRadius must lie in -4096..4095 (got ${p.priorTable.take(R + 1)})")
@@ -101,6 +105,13 @@ class DenseMatcher(p: ElasParams) extends Module {
     val frameHeight = Input(UInt(rowW.W))
     val out = Decoupled(new Framed(new DisparityPair(p)))
   })
+
+  private def sad(x: UInt, y: UInt): UInt = {
+    val unit = Module(new DescriptorSad(p.descriptorBytes))
+    unit.io.x := x
+    unit.io.y := y
+    unit.io.sad
+  }
 
   // ---------------------------------------------------------------- frame parameters (sampled at the desc sof)
   val width = RegInit(p.maxWidth.U(colW.W))
@@ -259,19 +270,25 @@ class DenseMatcher(p: ElasParams) extends Module {
   val slotL = Mux(flushing, 0.U, io.desc.bits.data.left)
   val slotR = Mux(flushing, 0.U, io.desc.bits.data.right)
 
-  // descriptor windows and the SADs of every disparity of both views (their own module: it depends on dispMax and
-  // the descriptor size only, so the synthesis flow shares it between configurations)
-  val costs = Module(new DisparityCosts(p.descriptorBytes, D))
-  costs.io.shift := slot
-  costs.io.left := slotL
-  costs.io.right := slotR
-  costs.io.capture := adv
+  // descriptor rings, all written at the stream position's address `wp` (see "Candidate lanes")
+  val wp = RegInit(0.U(ringW.W))
+  when(slot) { wp := wp + 1.U }
+  val refRing = SyncReadMem(ringDepth, Vec(2, UInt(descBits.W))) // (descL, descR) of every stream position
+  val ringL = Seq.fill(lanes)(SyncReadMem(ringDepth, UInt(descBits.W))) // descL: the right view's targets
+  val ringR = Seq.fill(lanes)(SyncReadMem(ringDepth, UInt(descBits.W))) // descR(P) written from stage B
+  when(slot) {
+    refRing.write(wp, VecInit(slotL, slotR))
+    ringL.foreach(_.write(wp, slotL))
+  }
 
   // pixel generator: pixel P = n - dispMax enters stage A with stream position n
   val gen = Reg(new Pos)
   val genActive = RegInit(false.B)
   val lag = RegInit(0.U(log2Ceil(D + 1).W))
   val sofPending = RegInit(false.B) // a frame the primer has not started yet
+  val aAddr = Reg(UInt(ringW.W)) //     ring address of a's pixel (its stream position)
+  // a's reference descriptors, read from the ring as the pixel enters stage A
+  val aRef = DenseMatcher.heldRead(refRing, wp - D.U, slot && !slotSof && lag === D.U && genActive)
 
   when(io.desc.fire && io.desc.bits.eof) { flush := D.U }
   when(slot) {
@@ -293,6 +310,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     }.elsewhen(genActive) {
       aValid := true.B
       a := gen
+      aAddr := wp - D.U
       gen := advance(gen)
       when(frameEnd(gen)) { genActive := false.B }
     }
@@ -375,8 +393,10 @@ class DenseMatcher(p: ElasParams) extends Module {
   class StageB extends Bundle {
     val u = UInt(colW.W)
     val v = UInt(rowW.W)
+    val addr = UInt(ringW.W)
+    val refs = Vec(2, UInt(descBits.W))
     val live = Vec(2, Bool()) //            inside the margins and textured
-    val tv = Vec(2, Vec(D + 1, Bool())) //  target column legal
+    val reach = Vec(2, SInt((colW + 1).W)) // highest disparity whose target column is legal (< 0: none)
     val plane = Vec(2, new PlaneCoeffs(p))
     val grid = Vec(2, Vec(S, SInt(dispW.W)))
     val sof = Bool()
@@ -387,16 +407,17 @@ class DenseMatcher(p: ElasParams) extends Module {
   val b = Reg(new StageB)
   val inside = a.u >= m.U && a.u +& m.U <= width - 1.U && a.v >= m.U && a.v +& m.U <= height - 1.U
   val gridCell = readBank(gridBanks, gridSel, a.gx, p.gridColsMax)
+  val flat = VecInit(Seq.fill(p.descriptorBytes)(128.U(8.W))).asUInt
+  val texture = aRef.map(sad(_, flat))
   when(adv) {
     bValid := aValid
     b.u := a.u
     b.v := a.v
-    b.live(0) := inside && costs.io.texture(0) >= p.matchTexture.U
-    b.live(1) := inside && costs.io.texture(1) >= p.matchTexture.U
-    for (d <- 0 to D) {
-      b.tv(0)(d) := a.u >= (m + d).U
-      b.tv(1)(d) := a.u +& (d + m).U <= width - 1.U
-    }
+    b.addr := aAddr
+    b.refs := aRef
+    for (view <- 0 until 2) b.live(view) := inside && texture(view) >= p.matchTexture.U
+    b.reach(0) := a.u.zext - m.S //                 left: target u - d needs u - d >= m
+    b.reach(1) := width.zext - 1.S - m.S - a.u.zext // right: target u + d needs u + d <= W - 1 - m
     b.plane(0) := ownerRead(0)
     b.plane(1) := ownerRead(1)
     b.grid(0) := gridCell.left
@@ -405,6 +426,8 @@ class DenseMatcher(p: ElasParams) extends Module {
     b.eol := rowEnd(a)
     b.eof := frameEnd(a)
   }
+  // the left view's targets: descR of the pixels that have passed stage B
+  when(adv && bValid) { ringR.foreach(_.write(b.addr, b.refs(1))) }
   // release the row banks after their last pixel
   when(aFire && rowEnd(a)) {
     when(frameEnd(a) || nextCellRow(a)) { planeFull(planeSel) := false.B }
@@ -413,9 +436,10 @@ class DenseMatcher(p: ElasParams) extends Module {
 
   // ---------------------------------------------------------------- stage B: plane value and range
   class StageC extends Bundle {
+    val addr = UInt(ringW.W)
+    val refs = Vec(2, UInt(descBits.W))
     val live = Vec(2, Bool())
-    val sad = Vec(2, Vec(D + 1, UInt(12.W)))
-    val tv = Vec(2, Vec(D + 1, Bool()))
+    val reach = Vec(2, SInt((colW + 1).W))
     val grid = Vec(2, Vec(S, SInt(dispW.W)))
     val lo = Vec(2, UInt((p.dispBits + 1).W))
     val hi = Vec(2, UInt((p.dispBits + 1).W))
@@ -430,9 +454,10 @@ class DenseMatcher(p: ElasParams) extends Module {
   val c = Reg(new StageC)
   when(adv) {
     cValid := bValid
+    c.addr := b.addr
+    c.refs := b.refs
     c.live := b.live
-    c.sad := costs.io.sad
-    c.tv := b.tv
+    c.reach := b.reach
     c.grid := b.grid
     c.sof := b.sof
     c.eol := b.eol
@@ -453,34 +478,35 @@ class DenseMatcher(p: ElasParams) extends Module {
     }
   }
 
-  // ---------------------------------------------------------------- stage C: costs and the first minimum
+  // ---------------------------------------------------------------- stage C: candidates and their ring reads
+  /** One candidate lane: grid lanes first (k = 0 until S), then the plane range (lo + i, i = 0..2R). */
   class Cand extends Bundle {
     val valid = Bool()
-    val cost = SInt(costW.W)
     val d = UInt(p.dispBits.W)
+    val prior = SInt(costW.W)
   }
-  /** The first of the minimum costs in evaluation order (strict "<": a later candidate wins only if cheaper). */
-  def firstMin(xs: Seq[Cand]): Cand =
-    if (xs.length == 1) xs.head
-    else {
-      val (l, r) = xs.splitAt(xs.length / 2)
-      val (x, y) = (firstMin(l), firstMin(r))
-      Mux(y.valid && (!x.valid || y.cost < x.cost), y, x)
-    }
+  class StageD extends Bundle {
+    val refs = Vec(2, UInt(descBits.W))
+    val live = Vec(2, Bool())
+    val cand = Vec(2, Vec(lanes, new Cand))
+    val sof = Bool()
+    val eol = Bool()
+    val eof = Bool()
+  }
   val prior = VecInit(p.priorTable.take(R + 1).map(_.S(costW.W)))
-  val result = (0 until 2).map { view =>
+  val candC = (0 until 2).map { view =>
     val lo = c.lo(view)
     val hi = c.hi(view)
+    def legal(d: UInt): Bool = d.zext <= c.reach(view)
     val listLive = c.grid(view).map(_ >= 0.S).scanLeft(true.B)(_ && _).tail
     val gridCands = (0 until S).map { k =>
       val d = c.grid(view)(k)
-      val present = listLive(k) // the list ends at the first -1
       val du = d.asUInt(p.dispBits - 1, 0)
       val inRange = !c.empty(view) && du >= lo && du <= hi
       val x = Wire(new Cand)
-      x.valid := present && !inRange && c.tv(view)(du)
-      x.cost := c.sad(view)(du).zext
+      x.valid := listLive(k) && !inRange && legal(du) // the list ends at the first -1
       x.d := du
+      x.prior := 0.S
       x
     }
     val rangeCands = (0 to 2 * R).map { i =>
@@ -489,79 +515,104 @@ class DenseMatcher(p: ElasParams) extends Module {
       val delta = c.off(view) + i.S
       val absDelta = Mux(delta < 0.S, (-delta).asUInt, delta.asUInt)
       val x = Wire(new Cand)
-      x.valid := !c.empty(view) && d <= hi && c.tv(view)(du)
-      x.cost := c.sad(view)(du).zext + Mux(c.priorOn(view), prior(absDelta(log2Ceil(R + 1) - 1, 0)), 0.S)
+      x.valid := !c.empty(view) && d <= hi && legal(du)
       x.d := du
+      x.prior := Mux(c.priorOn(view), prior(absDelta(log2Ceil(R + 1) - 1, 0)), 0.S)
       x
     }
-    val best = firstMin(gridCands ++ rangeCands)
-    Mux(c.live(view) && best.valid, best.d.zext, (-1).S(dispW.W))
+    gridCands ++ rangeCands
+  }
+  // lane k of the left view reads descR(P - d_k), of the right view descL(P + d_k); the reads leave with the pixel
+  val targets = (0 until 2).map { view =>
+    (0 until lanes).map { k =>
+      val d = candC(view)(k).d
+      val addr = if (view == 0) c.addr - d else c.addr + d
+      DenseMatcher.heldRead(if (view == 0) ringR(k) else ringL(k), addr, adv)
+    }
+  }
+  val dValid = RegInit(false.B)
+  val dReg = Reg(new StageD)
+  when(adv) {
+    dValid := cValid
+    dReg.refs := c.refs
+    dReg.live := c.live
+    for (view <- 0 until 2; k <- 0 until lanes) dReg.cand(view)(k) := candC(view)(k)
+    dReg.sof := c.sof
+    dReg.eol := c.eol
+    dReg.eof := c.eof
+  }
+
+  // ---------------------------------------------------------------- stage D: one SAD per candidate lane
+  class Scored extends Bundle {
+    val valid = Bool()
+    val cost = SInt(costW.W)
+    val d = UInt(p.dispBits.W)
+  }
+  class StageE extends Bundle {
+    val live = Vec(2, Bool())
+    val cand = Vec(2, Vec(lanes, new Scored))
+    val sof = Bool()
+    val eol = Bool()
+    val eof = Bool()
+  }
+  val eValid = RegInit(false.B)
+  val e = Reg(new StageE)
+  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => sad(dReg.refs(view), targets(view)(k))))
+  when(adv) {
+    eValid := dValid
+    e.live := dReg.live
+    for (view <- 0 until 2; k <- 0 until lanes) {
+      val x = dReg.cand(view)(k)
+      e.cand(view)(k).valid := x.valid
+      e.cand(view)(k).d := x.d
+      e.cand(view)(k).cost := laneSad(view)(k).zext + x.prior
+    }
+    e.sof := dReg.sof
+    e.eol := dReg.eol
+    e.eof := dReg.eof
+  }
+
+  // ---------------------------------------------------------------- stage E: the first minimum
+  /** The first of the minimum costs in evaluation order (strict "<": a later candidate wins only if cheaper). */
+  def firstMin(xs: Seq[Scored]): Scored =
+    if (xs.length == 1) xs.head
+    else {
+      val (l, r) = xs.splitAt(xs.length / 2)
+      val (x, y) = (firstMin(l), firstMin(r))
+      Mux(y.valid && (!x.valid || y.cost < x.cost), y, x)
+    }
+  val result = (0 until 2).map { view =>
+    val best = firstMin(e.cand(view))
+    Mux(e.live(view) && best.valid, best.d.zext, (-1).S(dispW.W))
   }
 
   when(io.out.fire) { outValid := false.B }
-  when(adv && cValid) {
+  when(adv && eValid) {
     outValid := true.B
     outBits.data.left := result(0)
     outBits.data.right := result(1)
-    outBits.sof := c.sof
-    outBits.eol := c.eol
-    outBits.eof := c.eof
+    outBits.sof := e.sof
+    outBits.eol := e.eol
+    outBits.eof := e.eof
   }
   io.out.valid := outValid
   io.out.bits := outBits
 }
 
-/** The descriptor windows of the dense stage and the SADs of all dispMax + 1 disparities of both views (see
-  * [[DenseMatcher]], "Descriptor window"). `shift` moves both windows by one stream position (left/right enter at
-  * position n); `capture` registers, for the pixel P = n - dispMax,
-  *   sad(0)(d) = SAD(descL(P), descR(P - d)),  sad(1)(d) = SAD(descR(P), descL(P + d)),
-  * and texture(v), the SAD of view v's reference against the flat descriptor (128 in every byte), is the current
-  * window's (combinational, so the caller registers it with its own decision).
-  * It depends on dispMax and the descriptor size only, so configurations that differ elsewhere share it (and its
-  * synthesis result); each SAD is a [[DescriptorSad]] instance, synthesised once.
-  */
-class DisparityCosts(descriptorBytes: Int, dispMax: Int) extends Module {
-  private val D = dispMax
-  private val descBits = 8 * descriptorBytes
-  val io = IO(new Bundle {
-    val shift = Input(Bool())
-    val left = Input(UInt(descBits.W))
-    val right = Input(UInt(descBits.W))
-    val capture = Input(Bool())
-    val sad = Output(Vec(2, Vec(D + 1, UInt(DescriptorSad.bits(descriptorBytes).W))))
-    val texture = Output(Vec(2, UInt(DescriptorSad.bits(descriptorBytes).W)))
-  })
-  // win(i) = stream position n - i
-  val winL = Reg(Vec(D + 1, UInt(descBits.W)))
-  val winR = Reg(Vec(2 * D + 1, UInt(descBits.W)))
-  when(io.shift) {
-    winL(0) := io.left
-    for (i <- 1 to D) winL(i) := winL(i - 1)
-    winR(0) := io.right
-    for (i <- 1 to 2 * D) winR(i) := winR(i - 1)
-  }
-  private def sad(x: UInt, y: UInt): UInt = {
-    val unit = Module(new DescriptorSad(descriptorBytes))
-    unit.io.x := x
-    unit.io.y := y
-    unit.io.sad
-  }
-  val flat = VecInit(Seq.fill(descriptorBytes)(128.U(8.W))).asUInt
-  val refL = winL(D)
-  val refR = winR(D)
-  val sadReg = Reg(chiselTypeOf(io.sad))
-  io.texture(0) := sad(refL, flat)
-  io.texture(1) := sad(refR, flat)
-  when(io.capture) {
-    for (d <- 0 to D) {
-      sadReg(0)(d) := sad(refL, winR(D + d))
-      sadReg(1)(d) := sad(refR, winL(D - d))
-    }
-  }
-  io.sad := sadReg
-}
-
 object DenseMatcher {
+  /** Ring depth: a power of two above dispMax + 3, the pixels in flight between the ring writes and the reads. */
+  def ringDepth(p: ElasParams): Int = 1 << log2Ceil(p.dispMax + 4)
+
+  /** A synchronous read issued with `en` that keeps its data while the pipeline stalls: the data is the memory's
+    * in the cycle after `en`, and a register's copy of it afterwards (a SyncReadMem's output is undefined then).
+    */
+  def heldRead[T <: Data](mem: SyncReadMem[T], addr: UInt, en: Bool): T = {
+    val data = mem.read(addr, en)
+    val fresh = RegNext(en, false.B)
+    val held = RegEnable(data, fresh)
+    Mux(fresh, data, held)
+  }
+
   /** floor(n / d) for a constant d and n < 2^bits, as a multiply by a rounded-up reciprocal (exact for
     * s = bits + ceil(log2 d): the error n (M d - 2^s) / (d 2^s) stays below 1/d).
     */
@@ -580,7 +631,7 @@ object DenseMatcher {
   /** Cycles a frame costs beyond its pixels: the flush, the three pipeline registers, and the first row's planes
     * and primer when they have not arrived during the first dispMax steps.
     */
-  def cycleSlack(p: ElasParams): Int = p.dispMax + 4 + (p.latticeColsMax - 1) + rasterCells(p) + 4
+  def cycleSlack(p: ElasParams): Int = p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 4
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
@@ -591,8 +642,10 @@ object DenseMatcher {
       "2 cell rows of both triangles' right planes, Mem with 1 combinational read port"),
     MemoryUse("Dense", "gridBanks", p.gridColsMax, 2 * gridCellBits(p),
       "2 grid rows of both views' candidates, Mem with 1 combinational read port"),
-    MemoryUse("Dense", "descWindow", 3 * p.dispMax + 2, 8 * p.descriptorBytes,
-      "registers: descL(n-dispMax..n), descR(n-2 dispMax..n)"),
+    MemoryUse("Dense", "refRing", ringDepth(p), 2 * 8 * p.descriptorBytes,
+      "both views' descriptors of the last ringDepth stream positions, SyncReadMem 1R1W (the references)"),
+    MemoryUse("Dense", "targetRings", ringDepth(p), 2 * p.denseCandidates * 8 * p.descriptorBytes,
+      "descL by stream position and descR by stage-B pixel, one SyncReadMem 1R1W replica per candidate lane and view"),
     MemoryUse("Dense", "raster", 2 * rasterCells(p), 1 + 6 * spanBits(p),
       "registers: raster window and the next row's shadow")
   )

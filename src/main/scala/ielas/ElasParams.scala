@@ -118,6 +118,9 @@ case class ElasParams(
   rangeCheck(epsilon, 0, dispMax, "epsilon")
   rangeCheck(fillC, 0, dispMax, "fillC")
   rangeCheck(supportLanes, 0, dispMax + 1, "supportLanes")
+  require(supportLanes == 0 || (Integer.bitCount(supportLanes) == 1 && supportLanes > 2 * (windowSize / 2)),
+    s"supportLanes = $supportLanes must be 0 (automatic) or a power of two above windowSize - 1 = ${windowSize - 1}" +
+      s" (legal: 0, ${(1 to 10).map(1 << _).filter(l => l > windowSize - 1 && l <= dispMax + 1).mkString(", ")})")
   rangeCheck(denseLanes, 0, dispMax + 1, "denseLanes")
 
   // ---- derived values ----
@@ -159,18 +162,33 @@ case class ElasParams(
     * and the cycles one lattice point may take at 1 input pixel per clock (step rows x step columns).
     */
   val supportCyclesPerPoint: Int = candidateStep * candidateStep
+  /** Support SAD lanes = column banks: a power of two above 2r (lane k reads bank k of an aligned block of
+    * columns). The lowest that schedules a node in supportCyclesPerPoint, else the one that sweeps in one block.
+    */
   val supportLanesUsed: Int =
     if (supportLanes > 0) supportLanes
-    else (1 to dispMax + 1).find(l => 2 * ((dispMax + 1 + l - 1) / l) + ElasParams.supportOverheadCycles <= supportCyclesPerPoint)
-      .getOrElse(dispMax + 1)
+    else {
+      val widths = Iterator.iterate(1 << log2Ceil(2 * windowRadius + 1))(_ * 2).takeWhile(_ <= dispMax + 1).toSeq
+      widths.find(l => ElasParams.supportNodeCycles(dispMax, windowRadius, l) <= supportCyclesPerPoint)
+        .getOrElse(widths.last)
+    }
   /** Dense candidates per pixel: the plane range plus the grid candidates. */
   val denseCandidates: Int = 2 * planeRadius + 1 + storedDisparities
   val denseLanesUsed: Int = if (denseLanes > 0) denseLanes else denseCandidates
 }
 
 object ElasParams {
-  /** Fixed cycles a support point spends outside its lane sweeps (load, ratio test, L/R compare). */
-  val supportOverheadCycles: Int = 4
+  /** Fixed cycles a support point spends outside its lane sweeps (node start, two decisions). */
+  val supportOverheadCycles: Int = 3
+
+  /** Cycles of one support sweep over disparities 0..dhi at the worst alignment: the target columns t - r .. t + r
+    * of all of them span dhi + 2r + 1 columns, i.e. at most ceil((dhi + 2r) / lanes) + 1 aligned blocks.
+    */
+  def supportSweepCycles(dhi: Int, windowRadius: Int, lanes: Int): Int = (dhi + 2 * windowRadius + lanes - 1) / lanes + 1
+
+  /** Worst cycles of one support node (both sweeps over 0..dispMax). */
+  def supportNodeCycles(dispMax: Int, windowRadius: Int, lanes: Int): Int =
+    supportOverheadCycles + 2 * supportSweepCycles(dispMax, windowRadius, lanes)
 
   def priorEntry(delta: Int, gamma: Double, sigma: Double, beta: Double): Int = {
     val n = math.exp(-(delta.toDouble * delta) / (2.0 * sigma * sigma))

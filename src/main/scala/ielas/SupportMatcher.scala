@@ -53,6 +53,13 @@ class SupportMatcher(p: ElasParams) extends Module {
   private val baseW = p.dispBits + 2
   private val firstRow = (margin + step - 1) / step * step // first lattice row that can hold supports
 
+  private def sad(x: UInt, y: UInt): UInt = {
+    val unit = Module(new DescriptorSad(p.descriptorBytes))
+    unit.io.x := x
+    unit.io.y := y
+    unit.io.sad
+  }
+
   val io = IO(new Bundle {
     val in = Flipped(Decoupled(new Framed(new DescriptorPair(p.descriptorBytes))))
     val frameWidth = Input(UInt(p.colBits.W))
@@ -145,8 +152,6 @@ class SupportMatcher(p: ElasParams) extends Module {
   val sIdle :: sNode :: sSweep :: sDecide :: Nil = Enum(4)
   val state = RegInit(sIdle)
   val phaseLeft = RegInit(true.B) // sweeping with the left view as reference
-  val base = RegInit(0.U(baseW.W))
-  val dhi = RegInit(0.U(p.dispBits.W))
   val uRef = RegInit(0.U(p.colBits.W)) // reference column of the current sweep
   val dLeft = RegInit(0.U(p.dispBits.W))
 
@@ -154,38 +159,47 @@ class SupportMatcher(p: ElasParams) extends Module {
   val nodeActive = rowActive && walkU >= margin.U && walkU +& margin.U < width
   val rowReady = !rowActive || bottomRow.v > walkV // both descriptor rows of this lattice row are in
 
-  // window reads: every bank reads the column of its residue in [start, start + banks)
-  def readWindow(view: Int, start: SInt): (Seq[Seq[UInt]], UInt) = {
-    val startLow = start.asUInt(bankBits - 1, 0)
-    val data = (0 until 2).map { kind =>
-      (0 until banks).map { b =>
-        val col = start +& (b.U(bankBits.W) - startLow)(bankBits - 1, 0).zext
-        val word = (col >> bankBits).asUInt
-        val wordOk = col >= 0.S && word < wordsPerRow.U
-        rowMem(kind)(view)(b).read(rowAddress(walkSlot, Mux(wordOk, word, 0.U)))
-      }
-    }
-    (data, RegNext(startLow))
-  }
-  /** The columns 0 .. L - 1 + 2r of a window read last cycle: column k is bank (startLow + k) mod banks. */
-  def windowColumns(data: Seq[UInt], startLow: UInt): Seq[UInt] =
-    SupportMatcher.rotate(data, startLow).take(lanes + 2 * r)
-
-  val uRefS = uRef.zext.pad(colW)
-  val baseS = base.zext.pad(colW)
-  val leftStart = Mux(phaseLeft, uRefS - r.S, uRefS + baseS - r.S)
-  val rightStart = Mux(phaseLeft, uRefS - baseS - (lanes - 1 + r).S, uRefS - r.S)
-  val (leftData, leftLow) = readWindow(0, leftStart)
-  val (rightData, rightLow) = readWindow(1, rightStart)
+  // ---- block reads: word j of every bank is the aligned block of columns jL .. jL + L - 1, lane k = bank k ----
+  val blockW = log2Ceil(wordsPerRow + 1)
+  def blockOf(col: UInt): UInt = (col >> bankBits)(blockW - 1, 0)
+  val j = RegInit(0.U(blockW.W)) //   block the sweep reads this cycle (the sweep runs from jHi down to jLo)
+  val jLo = RegInit(0.U(blockW.W))
+  val sweepStart = RegInit(false.B) // the sweep's first block (its s1 result starts the running best)
+  val minC1 = RegInit(0.U(colW.W)) // target columns t - r of the sweep's disparities: minC1 .. minC1 + dhi
+  val maxC1 = RegInit(0.U(colW.W))
+  val dRight = Wire(UInt(p.dispBits.W)) // the left sweep's decision, which sets the right sweep's reference column
+  val uRight = uRef - dRight
+  // Each view's banks read the target block while the view is the target, else the reference view's blocks:
+  // the block of uRef - r in the cycle before a sweep (sNode, or sDecide before the right sweep), then uRef + r.
+  val leftWord = Mux(state === sNode, blockOf(walkU - r.U),
+    Mux(phaseLeft, blockOf(uRef + r.U), j))
+  val rightWord = Mux(state === sDecide && phaseLeft, blockOf(uRight - r.U),
+    Mux(phaseLeft, j, blockOf(uRef + r.U)))
+  def readBlock(view: Int, word: UInt): Seq[Seq[UInt]] =
+    (0 until 2).map(kind => (0 until banks).map(b => rowMem(kind)(view)(b).read(rowAddress(walkSlot, word))))
+  val leftData = readBlock(0, leftWord)
+  val rightData = readBlock(1, rightWord)
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
-  // ---- s1: costs of the chunk issued last cycle, merged into the running best / second best ----
+  // ---- the sweep's reference descriptors: columns uRef - r (read before the sweep, kept) and uRef + r ----
+  val refView = (0 until 2).map(kind => (0 until banks).map(b => Mux(phaseLeft, leftData(kind)(b), rightData(kind)(b))))
+  val tgtView = (0 until 2).map(kind => (0 until banks).map(b => Mux(phaseLeft, rightData(kind)(b), leftData(kind)(b))))
+  val refLoFresh = RegNext(state === sNode || (state === sDecide && phaseLeft), false.B)
+  val refLo = Reg(Vec(2, UInt(descBits.W)))
+  def column(data: Seq[UInt], col: UInt): UInt = VecInit(data)(col(bankBits - 1, 0))
+  when(refLoFresh) { for (kind <- 0 until 2) refLo(kind) := column(refView(kind), uRef - r.U) }
+  val refHi = (0 until 2).map(kind => column(refView(kind), uRef + r.U))
+
+  // ---- s1: costs of the block read last cycle, merged into the running best / second best ----
   val issue = state === sSweep
   val s1Valid = RegNext(issue, false.B)
   val s1Left = RegNext(phaseLeft)
-  val s1Base = RegNext(base)
-  val s1Dhi = RegNext(dhi)
-  val s1First = RegNext(base === 0.U)
+  val s1Block = RegNext(j)
+  val s1MinC1 = RegNext(minC1)
+  val s1MaxC1 = RegNext(maxC1)
+  val s1First = RegNext(sweepStart)
+  // columns 0 .. 2r - 1 of the block read the cycle before (block j + 1): the partners of the top 2r lanes
+  val prevBlock = tgtView.map(cols => RegNext(VecInit(cols.take(2 * r))))
 
   class Best extends Bundle {
     val e1 = UInt(costBits.W)
@@ -206,22 +220,26 @@ class SupportMatcher(p: ElasParams) extends Module {
     merge(tree(lo), tree(hi))
   }
 
-  val leftColumns = (0 until 2).map(kind => windowColumns(leftData(kind), leftLow))
-  val rightColumns = (0 until 2).map(kind => windowColumns(rightData(kind), rightLow))
+  // lane k evaluates target column c1 = jL + k (and its partner c1 + 2r, in this block or the one above):
+  // left sweep d = maxC1 - c1 (the reference is u - r), right sweep d = c1 - minC1 (the reference is uRight - r)
   val laneBest = (0 until lanes).map { k =>
     val cost = (0 until 2).map { kind =>
-      def ref(k2: Int) = Mux(s1Left, leftColumns(kind)(k2), rightColumns(kind)(k2))
-      // left reference: target window starts at column u - base - (L-1) - r, so lane k's t - r is at L-1-k
-      def tgt(k2L: Int, k2R: Int) = Mux(s1Left, rightColumns(kind)(k2L), leftColumns(kind)(k2R))
-      SupportMatcher.sad(ref(0), tgt(lanes - 1 - k, k)) +& SupportMatcher.sad(ref(2 * r), tgt(lanes - 1 - k + 2 * r, k + 2 * r))
+      val cur = tgtView(kind)
+      val partner = if (k + 2 * r < banks) cur(k + 2 * r) else prevBlock(kind)(k + 2 * r - banks)
+      sad(refLo(kind), cur(k)) +& sad(refHi(kind), partner)
     }.reduce(_ +& _)
-    val d = s1Base + k.U
-    best(Mux(d <= s1Dhi, cost, costInf), d, costInf)
+    val c1 = Cat(s1Block, k.U(bankBits.W))
+    val inSweep = c1 >= s1MinC1 && c1 <= s1MaxC1
+    val d = Mux(s1Left, s1MaxC1 - c1, c1 - s1MinC1)(baseW - 1, 0)
+    best(Mux(inSweep, cost, costInf), d, costInf)
   }
+  // ascending d: lanes in reverse order for the left sweep; each later block holds higher d (left) or lower (right)
+  val blockBest = tree(laneBest.indices.map(k => Mux(s1Left, laneBest(lanes - 1 - k), laneBest(k))))
   val running = Reg(new Best)
-  val merged = Mux(s1First, tree(laneBest), merge(running, tree(laneBest)))
+  val merged = Mux(s1First, blockBest, Mux(s1Left, merge(running, blockBest), merge(blockBest, running)))
   when(s1Valid) { running := merged }
   val final_ = Mux(s1Valid, merged, running)
+  dRight := final_.d1(p.dispBits - 1, 0)
 
   // ---- output register ----
   val outValid = RegInit(false.B)
@@ -265,25 +283,33 @@ class SupportMatcher(p: ElasParams) extends Module {
       when(!nodeActive || dhiL < p.supportMinRange.U) {
         when(rowReady) { emit(none) }
       }.elsewhen(rowReady) {
-        phaseLeft := true.B; base := 0.U; dhi := dhiL; uRef := walkU
+        phaseLeft := true.B; uRef := walkU; sweepStart := true.B
+        minC1 := walkU - r.U - dhiL
+        maxC1 := walkU - r.U
+        j := blockOf(walkU + r.U)
+        jLo := blockOf(walkU - r.U - dhiL)
         state := sSweep
       }
     }
     is(sSweep) {
-      base := base + lanes.U
-      when(base +& lanes.U > dhi) { state := sDecide }
+      sweepStart := false.B
+      j := j - 1.U
+      when(j === jLo) { state := sDecide }
     }
     is(sDecide) {
       val texOk = Mux(phaseLeft, texBits(0), texBits(1))
       val accept = texOk && (final_.e1 * 100.U) < (final_.e2 * p.supportThresholdPercent.U)
       val d1 = final_.d1(p.dispBits - 1, 0)
       when(phaseLeft) {
-        val uRight = uRef - d1
         val dhiR = dispMin(width - (1 + margin).U - uRight)
         when(!accept || dhiR < p.supportMinRange.U) {
           emit(none)
         }.otherwise {
-          dLeft := d1; uRef := uRight; dhi := dhiR; base := 0.U; phaseLeft := false.B
+          dLeft := d1; uRef := uRight; phaseLeft := false.B; sweepStart := true.B
+          minC1 := uRight - r.U
+          maxC1 := uRight - r.U + dhiR
+          j := blockOf(uRight + r.U + dhiR)
+          jLo := blockOf(uRight - r.U)
           state := sSweep
         }
       }.otherwise {
@@ -298,17 +324,22 @@ object SupportMatcher {
   /** Lattice rows whose descriptor rows are buffered at once (see the class doc). */
   def slots(p: ElasParams): Int = (2 to 64).find(k => (k - 1) * p.candidateStep >= 2 * p.windowRadius + 1).get
 
-  /** Column-interleaved banks: a power of two covering the L + 2r columns of one sweep cycle. */
-  def banks(p: ElasParams): Int = 1 << log2Ceil(p.supportLanesUsed + 2 * p.windowRadius)
+  /** Column-interleaved banks, one per lane (lane k always reads bank k): ElasParams.supportLanesUsed, a power of
+    * two above 2r.
+    */
+  def banks(p: ElasParams): Int = p.supportLanesUsed
 
   def wordsPerRow(p: ElasParams): Int = (p.maxWidth + banks(p) - 1) / banks(p)
 
   /** Bits of a cost: 4 descriptors x 16 bytes x 255, plus room for the "no disparity" value above it. */
   def costBits(p: ElasParams): Int = log2Ceil(4 * p.descriptorBytes * 255 + 2)
 
-  /** Cycles of the search for one active node with left/right ranges dhiL/dhiR (the hardware's schedule). */
+  /** Cycles of the search for one active node with left/right ranges dhiL/dhiR at the worst block alignment: node
+    * start, each sweep's blocks, and one decision cycle after each sweep (ElasParams.supportNodeCycles).
+    */
   def nodeCycles(p: ElasParams, dhiL: Int, dhiR: Int): Int =
-    1 + (dhiL / p.supportLanesUsed + 1) + 1 + (dhiR / p.supportLanesUsed + 1) + 1
+    3 + ElasParams.supportSweepCycles(dhiL, p.windowRadius, p.supportLanesUsed) +
+      ElasParams.supportSweepCycles(dhiR, p.windowRadius, p.supportLanesUsed)
 
   /** Rows of latency behind the descriptor stream: the search of the last lattice row may take step rows. */
   def latencyRows(p: ElasParams): Int = p.candidateStep

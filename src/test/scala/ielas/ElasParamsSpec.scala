@@ -55,11 +55,16 @@ class ElasParamsSpec extends AnyFlatSpec with Matchers {
     msg(ConfigJson.load("no-such-config")) should (include("configuration") and include("kitti"))
   }
 
-  "support lanes" should "be the lowest count that keeps 1 pixel per clock" in {
-    val k = ElasParams.byName("kitti")
-    // 2 sweeps of ceil(256 / lanes) cycles plus fixed overhead within step*step = 25 cycles per lattice point
-    val lanes = k.supportLanesUsed
-    (2 * ((256 + lanes - 1) / lanes) + ElasParams.supportOverheadCycles) should be <= 25
-    (2 * ((256 + lanes - 2) / (lanes - 1)) + ElasParams.supportOverheadCycles) should be > 25
+  "support lanes" should "be the lowest power of two that keeps 1 pixel per clock" in {
+    // kitti: a sweep over d = 0..255 touches target columns spanning 255 + 2r + 1 = 260 columns, at worst
+    // ceil(259 / L) + 1 aligned blocks; a node is 3 + 2 sweeps within step * step = 25 cycles.
+    // L = 16: 3 + 2 * (17 + 1) = 39 > 25; L = 32: 3 + 2 * (9 + 1) = 23 <= 25.
+    ElasParams.byName("kitti").supportLanesUsed shouldBe 32
+    // tsukuba (dispMax 127): L = 8: 3 + 2 * (17 + 1) = 39; L = 16: 3 + 2 * (9 + 1) = 23.
+    ElasParams.byName("tsukuba").supportLanesUsed shouldBe 16
+    // small (dispMax 31): L = 8 (the lowest power of two above 2r = 4): 3 + 2 * (5 + 1) = 15.
+    ElasParams.byName("small").supportLanesUsed shouldBe 8
+    an[IllegalArgumentException] should be thrownBy ElasParams.byName("kitti").copy(supportLanes = 26)
+    an[IllegalArgumentException] should be thrownBy ElasParams.byName("kitti").copy(supportLanes = 4)
   }
 }
