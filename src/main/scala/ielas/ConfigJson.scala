@@ -38,6 +38,7 @@ object ConfigJson {
     "sDelta" -> p.sDelta,
     "epsilon" -> p.epsilon,
     "fillC" -> p.fillC,
+    "cyclesPerPixel" -> p.cyclesPerPixel,
     "supportLanes" -> p.supportLanesUsed,
     "denseLanes" -> p.denseLanesUsed,
     // derived (read-only for the golden model)
@@ -155,6 +156,7 @@ object ConfigJson {
       sDelta = int("sDelta", d.sDelta),
       epsilon = int("epsilon", d.epsilon),
       fillC = int("fillC", d.fillC),
+      cyclesPerPixel = int("cyclesPerPixel", d.cyclesPerPixel),
       supportLanes = int("supportLanes", d.supportLanes),
       denseLanes = int("denseLanes", d.denseLanes)
     )

@@ -85,7 +85,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   private val dispW = p.dispBits + 1 // signed disparity, -1 invalid
   private val offW = log2Ceil(3 * R + 1) + 2 // lo - d_p + i for i <= 2R, signed
   private val descBits = 8 * p.descriptorBytes
-  private val lanes = p.denseCandidates //     S grid lanes + 2R + 1 plane-range lanes per view
+  private val lanes = p.denseLanesUsed //      SAD lanes per view
+  private val groups = p.denseGroups //        cycles per pixel of candidate evaluation (lanes x groups >= candidates)
   private val ringDepth = DenseMatcher.ringDepth(p)
   private val ringW = log2Ceil(ringDepth)
   private val costW = 14 //             SAD16 <= 4080 plus a prior >= -4096 fits 14 signed bits
@@ -260,12 +261,16 @@ class DenseMatcher(p: ElasParams) extends Module {
   val (gridHit, gridSel) = bankOf(gridFull, gridTag, a.fp, a.gy)
   val (planeHit, planeSel) = bankOf(planeFull, planeTag, a.fp, a.cr)
   val aReady = a.u =/= 0.U || (shadowFull && gridHit)
-  val adv = outFree && (!aValid || aReady)
+  val adv = outFree && (!aValid || aReady) // the candidate groups (stages C..E) move
+  val cValid = RegInit(false.B)
+  val group = RegInit(0.U(math.max(1, log2Ceil(groups)).W)) // candidate group stage C issues this cycle
+  val cLast = group === (groups - 1).U
+  val upAdv = adv && (!cValid || cLast) //          stage C takes the next pixel: the stream, A and B move
 
   val flush = RegInit(0.U(log2Ceil(D + 1).W)) // flush steps still to insert after a frame's last beat
   val flushing = flush =/= 0.U
-  io.desc.ready := adv && !flushing
-  val slot = adv && (flushing || io.desc.valid)
+  io.desc.ready := upAdv && !flushing
+  val slot = upAdv && (flushing || io.desc.valid)
   val slotSof = !flushing && io.desc.bits.sof
   val slotL = Mux(flushing, 0.U, io.desc.bits.data.left)
   val slotR = Mux(flushing, 0.U, io.desc.bits.data.right)
@@ -288,7 +293,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   val sofPending = RegInit(false.B) // a frame the primer has not started yet
   val aAddr = Reg(UInt(ringW.W)) //     ring address of a's pixel (its stream position)
   // a's reference descriptors, read from the ring as the pixel enters stage A
-  val aRef = DenseMatcher.heldRead(refRing, wp - D.U, slot && !slotSof && lag === D.U && genActive)
+  val aRef = DenseMatcher.stageRead(refRing, wp - D.U, slot && !slotSof && lag === D.U && genActive)
 
   when(io.desc.fire && io.desc.bits.eof) { flush := D.U }
   when(slot) {
@@ -314,10 +319,10 @@ class DenseMatcher(p: ElasParams) extends Module {
       gen := advance(gen)
       when(frameEnd(gen)) { genActive := false.B }
     }
-  }.elsewhen(adv) {
+  }.elsewhen(upAdv) {
     aValid := false.B
   }
-  val aFire = adv && aValid // stage A's pixel moves on this cycle
+  val aFire = upAdv && aValid // stage A's pixel moves on this cycle
 
   // ---------------------------------------------------------------- primer: the next row's first K-1 cells
   val pRow = Reg(new Pos) // only v, cr, vIn, fp are used
@@ -409,7 +414,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   val gridCell = readBank(gridBanks, gridSel, a.gx, p.gridColsMax)
   val flat = VecInit(Seq.fill(p.descriptorBytes)(128.U(8.W))).asUInt
   val texture = aRef.map(sad(_, flat))
-  when(adv) {
+  when(upAdv) {
     bValid := aValid
     b.u := a.u
     b.v := a.v
@@ -427,7 +432,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     b.eof := frameEnd(a)
   }
   // the left view's targets: descR of the pixels that have passed stage B
-  when(adv && bValid) { ringR.foreach(_.write(b.addr, b.refs(1))) }
+  when(upAdv && bValid) { ringR.foreach(_.write(b.addr, b.refs(1))) }
   // release the row banks after their last pixel
   when(aFire && rowEnd(a)) {
     when(frameEnd(a) || nextCellRow(a)) { planeFull(planeSel) := false.B }
@@ -450,9 +455,8 @@ class DenseMatcher(p: ElasParams) extends Module {
     val eol = Bool()
     val eof = Bool()
   }
-  val cValid = RegInit(false.B)
   val c = Reg(new StageC)
-  when(adv) {
+  when(upAdv) {
     cValid := bValid
     c.addr := b.addr
     c.refs := b.refs
@@ -489,6 +493,8 @@ class DenseMatcher(p: ElasParams) extends Module {
     val refs = Vec(2, UInt(descBits.W))
     val live = Vec(2, Bool())
     val cand = Vec(2, Vec(lanes, new Cand))
+    val first = Bool() // the pixel's first / last candidate group
+    val last = Bool()
     val sof = Bool()
     val eol = Bool()
     val eof = Bool()
@@ -520,23 +526,33 @@ class DenseMatcher(p: ElasParams) extends Module {
       x.prior := Mux(c.priorOn(view), prior(absDelta(log2Ceil(R + 1) - 1, 0)), 0.S)
       x
     }
-    gridCands ++ rangeCands
+    val all = gridCands ++ rangeCands
+    // lane k evaluates candidate g * lanes + k in group g (candidates beyond the list are never valid)
+    (0 until lanes).map { k =>
+      val inGroup = (0 until groups).map { g =>
+        all.lift(g * lanes + k).getOrElse { val x = Wire(new Cand); x := 0.U.asTypeOf(new Cand); x }
+      }
+      if (groups == 1) inGroup.head else VecInit(inGroup)(group)
+    }
   }
   // lane k of the left view reads descR(P - d_k), of the right view descL(P + d_k); the reads leave with the pixel
   val targets = (0 until 2).map { view =>
     (0 until lanes).map { k =>
       val d = candC(view)(k).d
       val addr = if (view == 0) c.addr - d else c.addr + d
-      DenseMatcher.heldRead(if (view == 0) ringR(k) else ringL(k), addr, adv)
+      DenseMatcher.stageRead(if (view == 0) ringR(k) else ringL(k), addr, adv)
     }
   }
   val dValid = RegInit(false.B)
   val dReg = Reg(new StageD)
+  when(adv && cValid) { group := Mux(cLast, 0.U, group + 1.U) }
   when(adv) {
     dValid := cValid
     dReg.refs := c.refs
     dReg.live := c.live
     for (view <- 0 until 2; k <- 0 until lanes) dReg.cand(view)(k) := candC(view)(k)
+    dReg.first := group === 0.U
+    dReg.last := cLast
     dReg.sof := c.sof
     dReg.eol := c.eol
     dReg.eof := c.eof
@@ -551,6 +567,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   class StageE extends Bundle {
     val live = Vec(2, Bool())
     val cand = Vec(2, Vec(lanes, new Scored))
+    val first = Bool()
+    val last = Bool()
     val sof = Bool()
     val eol = Bool()
     val eof = Bool()
@@ -567,6 +585,8 @@ class DenseMatcher(p: ElasParams) extends Module {
       e.cand(view)(k).d := x.d
       e.cand(view)(k).cost := laneSad(view)(k).zext + x.prior
     }
+    e.first := dReg.first
+    e.last := dReg.last
     e.sof := dReg.sof
     e.eol := dReg.eol
     e.eof := dReg.eof
@@ -574,20 +594,23 @@ class DenseMatcher(p: ElasParams) extends Module {
 
   // ---------------------------------------------------------------- stage E: the first minimum
   /** The first of the minimum costs in evaluation order (strict "<": a later candidate wins only if cheaper). */
+  def firstOf(x: Scored, y: Scored): Scored = Mux(y.valid && (!x.valid || y.cost < x.cost), y, x)
   def firstMin(xs: Seq[Scored]): Scored =
     if (xs.length == 1) xs.head
     else {
       val (l, r) = xs.splitAt(xs.length / 2)
-      val (x, y) = (firstMin(l), firstMin(r))
-      Mux(y.valid && (!x.valid || y.cost < x.cost), y, x)
+      firstOf(firstMin(l), firstMin(r))
     }
+  val bestSoFar = Reg(Vec(2, new Scored)) // over the pixel's earlier candidate groups
   val result = (0 until 2).map { view =>
-    val best = firstMin(e.cand(view))
+    val groupBest = firstMin(e.cand(view))
+    val best = if (groups == 1) groupBest else Mux(e.first, groupBest, firstOf(bestSoFar(view), groupBest))
+    when(adv && eValid) { bestSoFar(view) := best }
     Mux(e.live(view) && best.valid, best.d.zext, (-1).S(dispW.W))
   }
 
   when(io.out.fire) { outValid := false.B }
-  when(adv && eValid) {
+  when(adv && eValid && e.last) {
     outValid := true.B
     outBits.data.left := result(0)
     outBits.data.right := result(1)
@@ -603,14 +626,13 @@ object DenseMatcher {
   /** Ring depth: a power of two above dispMax + 3, the pixels in flight between the ring writes and the reads. */
   def ringDepth(p: ElasParams): Int = 1 << log2Ceil(p.dispMax + 4)
 
-  /** A synchronous read issued with `en` that keeps its data while the pipeline stalls: the data is the memory's
-    * in the cycle after `en`, and a register's copy of it afterwards (a SyncReadMem's output is undefined then).
+  /** The data of a pipeline stage's memory entry, read one cycle ahead: when `enter`, the entry at `addr` enters the
+    * stage; otherwise the stage keeps its entry and the read repeats its address (the memories are written only when
+    * the pipeline moves, so the repeated read returns the same data, and no output register is needed).
     */
-  def heldRead[T <: Data](mem: SyncReadMem[T], addr: UInt, en: Bool): T = {
-    val data = mem.read(addr, en)
-    val fresh = RegNext(en, false.B)
-    val held = RegEnable(data, fresh)
-    Mux(fresh, data, held)
+  def stageRead[T <: Data](mem: SyncReadMem[T], addr: UInt, enter: Bool): T = {
+    val held = RegEnable(addr, enter)
+    mem.read(Mux(enter, addr, held))
   }
 
   /** floor(n / d) for a constant d and n < 2^bits, as a multiply by a rounded-up reciprocal (exact for

@@ -85,8 +85,9 @@ case class ElasParams(
     epsilon: Int = 15,
     fillC: Int = 60,
     // implementation knobs
-    supportLanes: Int = 0, // 0 = the lowest count that keeps up with 1 pixel per clock
-    denseLanes: Int = 0 //    0 = likewise
+    cyclesPerPixel: Int = 1, // the input takes at most one pixel every cyclesPerPixel clocks; lane counts follow
+    supportLanes: Int = 0, //   0 = the lowest count that keeps up with one pixel every cyclesPerPixel clocks
+    denseLanes: Int = 0 //      0 = likewise (candidates per view / cyclesPerPixel, rounded up)
 ) {
   private def rangeCheck(value: Int, lo: Int, hi: Int, what: String): Unit =
     require(value >= lo && value <= hi, s"$what = $value is out of range (legal: $lo..$hi)")
@@ -117,6 +118,7 @@ case class ElasParams(
   rangeCheck(sDelta, 0, maxWidth, "sDelta")
   rangeCheck(epsilon, 0, dispMax, "epsilon")
   rangeCheck(fillC, 0, dispMax, "fillC")
+  require(Seq(1, 2, 4, 8).contains(cyclesPerPixel), s"cyclesPerPixel = $cyclesPerPixel is not supported (legal: 1, 2, 4, 8)")
   rangeCheck(supportLanes, 0, dispMax + 1, "supportLanes")
   require(supportLanes == 0 || (Integer.bitCount(supportLanes) == 1 && supportLanes > 2 * (windowSize / 2)),
     s"supportLanes = $supportLanes must be 0 (automatic) or a power of two above windowSize - 1 = ${windowSize - 1}" +
@@ -161,7 +163,7 @@ case class ElasParams(
   /** Support search cost evaluations per lattice point (left search and right check, 0..dispMax each),
     * and the cycles one lattice point may take at 1 input pixel per clock (step rows x step columns).
     */
-  val supportCyclesPerPoint: Int = candidateStep * candidateStep
+  val supportCyclesPerPoint: Int = cyclesPerPixel * candidateStep * candidateStep
   /** Support SAD lanes = column banks: a power of two above 2r (lane k reads bank k of an aligned block of
     * columns). The lowest that schedules a node in supportCyclesPerPoint, else the one that sweeps in one block.
     */
@@ -174,7 +176,12 @@ case class ElasParams(
     }
   /** Dense candidates per pixel: the plane range plus the grid candidates. */
   val denseCandidates: Int = 2 * planeRadius + 1 + storedDisparities
-  val denseLanesUsed: Int = if (denseLanes > 0) denseLanes else denseCandidates
+  /** Dense SAD lanes per view; each pixel's candidates are evaluated in denseGroups cycles of denseLanesUsed. */
+  val denseLanesUsed: Int =
+    if (denseLanes > 0) denseLanes else (denseCandidates + cyclesPerPixel - 1) / cyclesPerPixel
+  val denseGroups: Int = (denseCandidates + denseLanesUsed - 1) / denseLanesUsed
+  require(denseGroups <= cyclesPerPixel, s"denseLanes = $denseLanes is too few for cyclesPerPixel = $cyclesPerPixel" +
+    s" (legal: 0 or ${(denseCandidates + cyclesPerPixel - 1) / cyclesPerPixel}..${dispMax + 1})")
 }
 
 object ElasParams {
@@ -195,9 +202,10 @@ object ElasParams {
     ((math.log(gamma) - math.log(gamma + n)) / beta).toInt // toInt truncates toward zero, as libelas
   }
 
-  private def preset(name: String, w: Int, h: Int, dmax: Int, set: ParameterSet, windowSize: Int = 5) =
+  private def preset(name: String, w: Int, h: Int, dmax: Int, set: ParameterSet, windowSize: Int = 5,
+      cyclesPerPixel: Int = 1) =
     ElasParams(name = name, maxWidth = w, maxHeight = h, dispMax = dmax, parameterSet = set, windowSize = windowSize,
-      fillC = math.min(60, dmax))
+      fillC = math.min(60, dmax), cyclesPerPixel = cyclesPerPixel)
 
   /** The named configurations of INTERFACES.md §1, then small ones for fast tests. */
   val named: Seq[ElasParams] = Seq(
@@ -210,6 +218,7 @@ object ElasParams {
     preset("small-middlebury", 128, 64, 31, ParameterSet.Middlebury),
     preset("small-w3", 128, 64, 31, ParameterSet.Robotics, windowSize = 3),
     preset("small-w7", 128, 64, 31, ParameterSet.Robotics, windowSize = 7),
+    preset("small-c4", 128, 64, 31, ParameterSet.Robotics, cyclesPerPixel = 4),
     preset("mb-tsukuba", 384, 288, 63, ParameterSet.Robotics)
   )
 

@@ -72,7 +72,14 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
   private val latticeType = new Framed(SInt((p.dispBits + 1).W))
 
   val guard = Module(new FrameGuard(p))
-  guard.io.in <> in
+  if (p.cyclesPerPixel == 1) guard.io.in <> in
+  else { // at most one pixel every cyclesPerPixel clocks: the lane counts are sized for that rate
+    val wait = RegInit(0.U(log2Ceil(p.cyclesPerPixel).W))
+    guard.io.in.valid := in.valid && wait === 0.U
+    guard.io.in.bits := in.bits
+    in.ready := guard.io.in.ready && wait === 0.U
+    when(in.fire) { wait := (p.cyclesPerPixel - 1).U }.elsewhen(wait =/= 0.U) { wait := wait - 1.U }
+  }
   guard.io.frameWidth := frameWidth
   guard.io.frameHeight := frameHeight
   guard.io.clearError := clearError

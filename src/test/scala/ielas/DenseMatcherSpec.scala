@@ -19,6 +19,9 @@ class DenseMatcherSpec extends AnyFlatSpec {
   it should "match the golden dense maps at config small" in {
     DenseMatcherSpec.runSuite("small")
   }
+  it should "match the golden dense maps at config small-c4 (4 cycles per pixel: 7 lanes x 4 candidate groups)" in {
+    DenseMatcherSpec.runSuite("small-c4")
+  }
 }
 
 object DenseMatcherSpec {
@@ -140,12 +143,12 @@ object DenseMatcherSpec {
 
   def choppyBound(frames: Seq[Golden]): Long = frames.map(g => 20L * g.w * g.h).sum + 20000
 
-  /** No stalls: N descriptor transfers complete in N + c cycles (no latency rows: the stage reads only its own
-    * descriptor stream; c = DenseMatcher.cycleSlack).
+  /** No stalls: N descriptor transfers complete in cyclesPerPixel x (N + s) cycles (no latency rows: the stage
+    * reads only its own descriptor stream; s = DenseMatcher.cycleSlack, the flush steps among them).
     */
   def throughputBound(p: ElasParams, w: Int, h: Int): (Long, String) = {
-    val c = DenseMatcher.cycleSlack(p)
-    (w.toLong * h + c, s"N + $c")
+    val (c, s) = (p.cyclesPerPixel, DenseMatcher.cycleSlack(p))
+    (c * (w.toLong * h + s), s"$c x (N + $s)")
   }
 
   /** A textured left view and a right view made of horizontal bands with different shifts (disparity jumps that

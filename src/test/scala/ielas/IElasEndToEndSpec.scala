@@ -18,6 +18,9 @@ class IElasEndToEndSpec extends AnyFlatSpec {
   it should "match the golden disparity map end to end at config mb-tsukuba" in {
     runSuite("mb-tsukuba")
   }
+  it should "match the golden disparity map end to end at config small-c4 (one pixel every 4 cycles)" in {
+    runRate("small-c4")
+  }
 }
 
 object IElasEndToEndSpec {
@@ -86,7 +89,57 @@ object IElasEndToEndSpec {
   }
 
   def choppyBound(frames: Seq[Frame], p: ElasParams): Long =
-    frames.map(f => 12L * f.width * f.rows).sum + 12L * IElas.latencyRows(p) * p.maxWidth + 100000
+    p.cyclesPerPixel * (frames.map(f => 12L * f.width * f.rows).sum + 12L * IElas.latencyRows(p) * p.maxWidth + 100000)
+
+  /** The no-stall bound: cyclesPerPixel x (N + latencyRows * W + c). */
+  def throughputBound(p: ElasParams, f: Frame): (Long, String) = {
+    val (cpp, rows, c) = (p.cyclesPerPixel, IElas.latencyRows(p), IElas.cycleSlack(p))
+    (cpp * (f.width.toLong * f.height + rows.toLong * f.width + c), s"$cpp x (N + $rows*W + $c)")
+  }
+
+  /** A configuration with cyclesPerPixel > 1 (small frames): real crops and noise under gaps and back-pressure,
+    * frames of two sizes back to back, and the no-stall bound at the configuration's rate.
+    */
+  def runRate(config: String): Unit = {
+    val p = ElasParams.byName(config)
+    require(p.cyclesPerPixel > 1, s"$config: runRate is for cyclesPerPixel > 1")
+    val rnd = new Random(seed ^ config.hashCode ^ 0x3a7e)
+    val (kl, kr) = TestImages.kitti2012
+    val (tl, tr) = TestImages.middleburyTsukuba
+    val all = Seq(
+      Frame("KITTI 2012 000070 crop 128x64 at (560,170)", kl.crop(560, 170, 128, 64), kr.crop(560, 170, 128, 64)),
+      Frame("Middlebury tsukuba crop 128x64 at (120,110)", tl.crop(120, 110, 128, 64), tr.crop(120, 110, 128, 64)),
+      Frame("noise 64x32", TestImages.noise(64, 32, rnd), TestImages.noise(64, 32, rnd)))
+    val tmp = tmpDir(s"top-$config")
+    val expected = all.zipWithIndex.map { case (f, i) => golden(p, f, tmp.resolve(f"golden$i%02d")) }
+    simulate(new IElas(p), tmp.resolve("verilator")) { dut =>
+      reset(dut)
+      for ((f, exp) <- all.zip(expected)) {
+        val traffic = Traffic(rnd.nextDouble() * 0.4, rnd.nextDouble() * 0.4)
+        val (_, got) = stream(dut, Seq(f), traffic, rnd, choppyBound(Seq(f), p), f.label, f.width.toLong * f.height)
+        val board = new Scoreboard(s"top [${f.label}]")
+        check(board, f, got.head, exp, 0)
+        assert(board.ok, board.report)
+        println(f"  ${p.name}: ${board.report} (input gaps ${traffic.inputGap}%.2f, output stalls ${traffic.outputStall}%.2f)")
+      }
+      val full = all.head
+      val (cycles, got) = stream(dut, Seq(full), noStall, rnd, choppyBound(Seq(full), p), "throughput", full.width.toLong * full.height)
+      val tput = new Scoreboard("top [throughput]")
+      check(tput, full, got.head, expected.head, 0)
+      assert(tput.ok, tput.report)
+      val (bound, formula) = throughputBound(p, full)
+      println(s"  ${p.name}: throughput ${full.width}x${full.height}: $cycles cycles, bound $bound ($formula)")
+      assert(cycles <= bound, s"throughput: $cycles cycles > bound $bound ($formula)")
+      assert(cycles >= p.cyclesPerPixel.toLong * full.width * full.height, s"throughput: $cycles cycles, faster than the rate")
+      val seq = Seq(all(2), all(1))
+      val (_, b2b) = stream(dut, seq, Traffic(0.1, 0.1), rnd, choppyBound(seq, p), "back to back", seq.map(f => f.width.toLong * f.height).sum)
+      val b2bBoard = new Scoreboard("top [back to back]")
+      assert(b2b.length == seq.length, s"back to back: ${b2b.length} output frames for ${seq.length}")
+      for ((f, i) <- seq.zipWithIndex) check(b2bBoard, f, b2b(i), expected(Seq(2, 1)(i)), i)
+      assert(b2bBoard.ok, b2bBoard.report)
+      println(s"  ${p.name}: back to back ${seq.map(f => s"${f.width}x${f.height}").mkString(", ")}: ${b2bBoard.report}")
+    }
+  }
 
   def cases(rnd: Random): Seq[Frame] = {
     val (kl, kr) = TestImages.kitti2012
@@ -131,8 +184,8 @@ object IElasEndToEndSpec {
       val tput = new Scoreboard("top [throughput]")
       check(tput, full, got.head, expected.last, 0)
       assert(tput.ok, tput.report)
-      val bound = full.width.toLong * full.height + IElas.latencyRows(p).toLong * full.width + IElas.cycleSlack(p)
-      println(s"  ${p.name}: throughput ${full.width}x${full.height}: $cycles cycles, bound $bound (N + ${IElas.latencyRows(p)}*W + ${IElas.cycleSlack(p)})")
+      val (bound, formula) = throughputBound(p, full)
+      println(s"  ${p.name}: throughput ${full.width}x${full.height}: $cycles cycles, bound $bound ($formula)")
       assert(cycles <= bound, s"throughput: $cycles cycles > bound $bound")
 
       // Frames of different sizes back to back.

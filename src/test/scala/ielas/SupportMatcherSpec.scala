@@ -26,6 +26,9 @@ class SupportMatcherSpec extends AnyFlatSpec {
   it should "match the golden support lattice at config small-w7 (windowSize 7: 3 row slots, 16 banks)" in {
     runSuite("small-w7", extensive = false)
   }
+  it should "match the golden support lattice at config small-c4 (one pixel every 4 cycles: 8 lanes)" in {
+    runSuite("small-c4", extensive = false)
+  }
   it should "match the golden support lattice at kitti width (1242x16, dispMax 255), with the throughput bound" in {
     runKittiWidth()
   }
@@ -119,11 +122,13 @@ object SupportMatcherSpec {
   def choppyBound(p: ElasParams, w: Int, h: Int, frames: Int = 1): Long =
     20L * (frames * (w * h + (p.descriptorMargin + p.candidateStep + 1) * w)) + 10000
 
-  /** The no-stall bound: N + latencyRows * W + c, latencyRows = descriptor rows + search rows. */
+  /** The no-stall bound: cyclesPerPixel x (N + latencyRows * W) + c, latencyRows = descriptor rows + search rows
+    * (the search schedule keeps up with one pixel every cyclesPerPixel clocks).
+    */
   def throughputBound(p: ElasParams, w: Int, h: Int): (Long, String) = {
     val rows = Descriptor.latencyRows(p) + SupportMatcher.latencyRows(p)
-    val c = Descriptor.cycleSlack(p) + cycleSlack
-    (w.toLong * h + rows * w + c, s"N + $rows*W + $c")
+    val (cpp, c) = (p.cyclesPerPixel, Descriptor.cycleSlack(p) + cycleSlack)
+    (cpp * (w.toLong * h + rows * w) + c, s"$cpp x (N + $rows*W) + $c")
   }
   /** Cycles beyond the rows: the search of the last active node and the output register. */
   val cycleSlack: Int = 8
