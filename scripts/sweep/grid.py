@@ -20,11 +20,13 @@ PARAMETER_SETS = ("robotics", "middlebury")
 
 
 class Point:
-    def __init__(self, grid, resolution, disp_max, stored, window):
+    def __init__(self, grid, resolution, disp_max, stored, window, cycles_per_pixel=1):
         self.grid, self.resolution = grid, resolution
         self.disp_max, self.stored, self.window = disp_max, stored, window
+        self.cycles_per_pixel = cycles_per_pixel
         prefix = "quick-" if grid == "quick" else ""
-        self.name = f"{prefix}{resolution}-d{disp_max}-s{stored}-w{window}"
+        rate = f"-c{cycles_per_pixel}" if cycles_per_pixel > 1 else ""
+        self.name = f"{prefix}{resolution}-d{disp_max}-s{stored}-w{window}{rate}"
 
     @property
     def base(self):
@@ -37,6 +39,8 @@ class Point:
 
     def spec(self, parameter_set="robotics"):
         kv = f"dispMax={self.disp_max},storedDisparities={self.stored},windowSize={self.window}"
+        if self.cycles_per_pixel > 1:
+            kv += f",cyclesPerPixel={self.cycles_per_pixel}"
         if parameter_set != "robotics":
             kv += f",parameterSet={parameter_set}"
         return f"{self.config_name(parameter_set)}:{self.base}:{kv}"
@@ -47,9 +51,10 @@ class Point:
 
 def full():
     """18 main points (resolution x dispMax x storedDisparities at windowSize 5), then windowSize 3 and 7 at the
-    two named configurations (storedDisparities 20): 22 points."""
+    two named configurations (storedDisparities 20), then cyclesPerPixel 2, 4, 8 there: 28 points."""
     pts = [Point("full", r, d, s, 5) for r in ("kitti", "tsukuba") for d in (63, 127, 255) for s in (10, 20, 40)]
     pts += [Point("full", r, NAMED[r], 20, w) for r in ("kitti", "tsukuba") for w in (3, 7)]
+    pts += [Point("full", r, NAMED[r], 20, 5, c) for r in ("kitti", "tsukuba") for c in (2, 4, 8)]
     return pts
 
 

@@ -46,7 +46,7 @@ import chisel3.util._
   * carried owner of the nearest covered pixel to its left (a row whose pixel 0 is uncovered has no covered pixel at
   * all and takes the cell row's last triangle). A primer computes the first K-1 cells of the next row into shadow
   * registers while the current row runs (one cell per clock), so row starts cost no cycles.
-  *   raster registers = 2 (window + shadow) x K x (1 + 6 spanBits)   (K = 9 at small, 53 at kitti)
+  *   raster registers = 2 (window + shadow) x K x (1 + 8 spanBits)   (K = 9 at small, 53 at kitti)
   *
   * '''Row banks''' (memories, combinational read ports; written by the loaders, tagged with frame parity and row):
   *   corner banks = 2 x (latticeColsMax - 1) x 4 dispBits          (one cell row in use, the next loading)
@@ -181,11 +181,13 @@ class DenseMatcher(p: ElasParams) extends Module {
 
   // ---------------------------------------------------------------- rasteriser cell spans
   /** e*h, g*h, f*h of one cell for view 0 (left, s = 0) and 1 (right, s = corner disparities). */
+  /** Per view and triangle t the covered interval lo..hi of the scaled column u*h: t = 0 between e and g, t = 1
+    * between g and f (ordered when the cell enters the window, so a pixel's cover test is two compares).
+    */
   class Span extends Bundle {
     val valid = Bool()
-    val e = Vec(2, SInt(spanW.W))
-    val g = Vec(2, SInt(spanW.W))
-    val f = Vec(2, SInt(spanW.W))
+    val lo = Vec(2, Vec(2, SInt(spanW.W)))
+    val hi = Vec(2, Vec(2, SInt(spanW.W)))
   }
   def cellSpan(cc: UInt, exists: Bool, corners: Vec[UInt], up: UInt, down: UInt): Span = {
     val s = Wire(new Span)
@@ -199,9 +201,13 @@ class DenseMatcher(p: ElasParams) extends Module {
       val tr = x1.zext - sh(1)
       val bl = x0.zext - sh(2)
       val br = x1.zext - sh(3)
-      s.e(view) := tl * up.zext + bl * down.zext
-      s.g(view) := tr * up.zext + bl * down.zext
-      s.f(view) := tr * up.zext + br * down.zext
+      val e = tl * up.zext + bl * down.zext
+      val g = tr * up.zext + bl * down.zext
+      val f = tr * up.zext + br * down.zext
+      for ((t, (x, y)) <- Seq(0 -> (e, g), 1 -> (g, f))) {
+        s.lo(view)(t) := Mux(x < y, x, y)
+        s.hi(view)(t) := Mux(x < y, y, x)
+      }
     }
     s
   }
@@ -379,12 +385,11 @@ class DenseMatcher(p: ElasParams) extends Module {
     }.otherwise { window := win }
   }
 
-  def between(x: SInt, y: SInt, z: SInt): Bool = Mux(x < y, x <= z && z <= y, y <= z && z <= x)
   val fallback = Cat(lastCell, 1.U(1.W))
   val ownerRead = (0 until 2).map { view =>
     val covers = (0 until K).flatMap { j =>
       val s = win(j)
-      Seq(s.valid && between(s.e(view), s.g(view), uh), s.valid && between(s.g(view), s.f(view), uh))
+      (0 until 2).map(t => s.valid && s.lo(view)(t) <= uh && uh <= s.hi(view)(t))
     } // index j*2 + t: drawing order
     val any = covers.reduce(_ || _)
     val top = (2 * K - 1).U - PriorityEncoder(covers.reverse)
@@ -532,7 +537,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       val inGroup = (0 until groups).map { g =>
         all.lift(g * lanes + k).getOrElse { val x = Wire(new Cand); x := 0.U.asTypeOf(new Cand); x }
       }
-      if (groups == 1) inGroup.head else VecInit(inGroup)(group)
+      if (groups == 1) inGroup.head else Mux1H(inGroup.indices.map(g => group === g.U), inGroup)
     }
   }
   // lane k of the left view reads descR(P - d_k), of the right view descL(P + d_k); the reads leave with the pixel
@@ -668,7 +673,7 @@ object DenseMatcher {
       "both views' descriptors of the last ringDepth stream positions, SyncReadMem 1R1W (the references)"),
     MemoryUse("Dense", "targetRings", ringDepth(p), 2 * p.denseCandidates * 8 * p.descriptorBytes,
       "descL by stream position and descR by stage-B pixel, one SyncReadMem 1R1W replica per candidate lane and view"),
-    MemoryUse("Dense", "raster", 2 * rasterCells(p), 1 + 6 * spanBits(p),
+    MemoryUse("Dense", "raster", 2 * rasterCells(p), 1 + 8 * spanBits(p),
       "registers: raster window and the next row's shadow")
   )
 }

@@ -186,7 +186,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   val tgtView = (0 until 2).map(kind => (0 until banks).map(b => Mux(phaseLeft, rightData(kind)(b), leftData(kind)(b))))
   val refLoFresh = RegNext(state === sNode || (state === sDecide && phaseLeft), false.B)
   val refLo = Reg(Vec(2, UInt(descBits.W)))
-  def column(data: Seq[UInt], col: UInt): UInt = VecInit(data)(col(bankBits - 1, 0))
+  def column(data: Seq[UInt], col: UInt): UInt = Mux1H(data.indices.map(b => col(bankBits - 1, 0) === b.U), data)
   when(refLoFresh) { for (kind <- 0 until 2) refLo(kind) := column(refView(kind), uRef - r.U) }
   val refHi = (0 until 2).map(kind => column(refView(kind), uRef + r.U))
 
