@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Accuracy evaluation of the golden model on every ground-truth pair of docs/EVALUATION.md (`make eval`).
+# Accuracy evaluation of the golden model on every ground-truth pair of docs/evaluation.md (`make eval`).
 #
 # Usage (positional MODE, then a preset or a configuration; everything after passes through to `match`):
 #   scripts/eval.sh MODE --preset robotics|middlebury [MATCH ARGS...]
@@ -8,7 +8,7 @@
 #   e.g. scripts/eval.sh ielas --preset robotics --interp paper
 #
 # MODE is elas or ielas. Each pair runs in a fresh `ielas-golden match` process (with --preset, disp_max per
-# family as in EVALUATION.md; with --config the configuration fixes it) and is scored by `ielas-eval`.
+# family as in docs/evaluation.md; with --config the configuration fixes it) and is scored by `ielas-eval`.
 # Output: build/eval/<mode>-<preset|config>[-<match args>]/ with results.csv (one line per pair and region),
 # results.md (per-pair metrics, family means, goal families first), <pair>-disp.png (colourised) and
 # <pair>-<region>-error.png. With --config, pairs larger than the configuration are skipped and listed; a
@@ -58,7 +58,7 @@ if [ -n "$CONFIG" ]; then
   MAX_W="$(json_int maxWidth)"; MAX_H="$(json_int maxHeight)"
   [ -n "$MAX_W" ] && [ -n "$MAX_H" ] || die "no maxWidth/maxHeight in $CONFIG_FILE"
   SETTING="$(basename "$CONFIG" .json)"
-  # New Tsukuba-sized configurations score the centred 640x480 crops (EVALUATION.md).
+  # New Tsukuba-sized configurations score the centred 640x480 crops (docs/evaluation.md).
   if [[ "$SETTING" == tsukuba* ]] || { [ "$MAX_W" = 640 ] && [ "$MAX_H" = 480 ]; }; then CROPS=1; fi
   SELECT=(--config "$CONFIG")
 else
@@ -181,7 +181,7 @@ MD="$OUT/results.md"
   echo "predictions; time = seconds per frame. Family rows are plain means over pairs."
   echo
   awk -F, -v goal=1 -f /dev/stdin "$CSV" <<'AWK'
-# Family means per (family, region); the goal families of EVALUATION.md first.
+# Family means per (family, region); the goal families of docs/evaluation.md first.
 NR == 1 { next }
 {
   key = $1 "," $3

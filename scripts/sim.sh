@@ -191,7 +191,7 @@ for mode in "no stalls:" "10 % gaps, 10 % stalls:--gaps 0.1 --stalls 0.1 --seed 
   w="${size%x*}" h="${size#*x}"
   cycles="$(val cycles "$log")" rows="$(val "latency rows" "$log")"
   wall="$(sed -n 's/^sim wall time: \([0-9.]*\) s .* \([0-9]*\) cycles\/s)/\1 s, \2 cycles\/s/p' "$log")"
-  # the throughput bound (INTERFACES.md §4) holds only without stalls
+  # the throughput bound (docs/interfaces.md §4) holds only without stalls
   if [ -z "$args" ]; then slack=$(( cycles - FRAMES * w * h - rows * w )); else slack="-"; fi
   ROWS+=("| $label | $size | $FRAMES | $cycles | $(val cycles/pixel "$log") | $(val fps@200MHz "$log") | $rows | $slack | $wall |")
 done

@@ -1,4 +1,4 @@
-// Sobel and descriptor against hand-computed values (ELAS_SPEC §2-3, docs/ALGORITHM.md §1-2).
+// Sobel and descriptor against hand-computed values (docs/ALGORITHM.md, descriptor steps 1-2).
 #include <cstdint>
 
 #include "check.hpp"

@@ -94,7 +94,7 @@ int main() {
   }
   chmod((kTmp + "/fake-match.sh").c_str(), 0755);
 
-  // Preset run: all 26 pair/region rows of EVALUATION.md's table.
+  // Preset run: all 26 pair/region rows of docs/evaluation.md's table.
   const std::string presetOut = kTmp + "/preset";
   CHECK(runEval("elas --preset robotics", presetOut) == 0);
   auto rows = readCsv(presetOut + "/results.csv");

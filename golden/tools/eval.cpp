@@ -1,4 +1,4 @@
-// ielas-eval: scores one disparity map against ground truth the way docs/EVALUATION.md defines it, and
+// ielas-eval: scores one disparity map against ground truth the way docs/evaluation.md defines it, and
 // helps scripts/eval.sh with the file chores (centred crops, colourised maps).
 //
 //   ielas-eval score --disp D.pfm|D.png|D.npy --gt G.pfm|G.png [--gt-scale S] [--mask M.png]

@@ -1,7 +1,7 @@
 """Accuracy of one configuration with the golden `ielas` model, on the pairs of its resolution (docs/sweep.md).
 
 Each pair runs in a fresh `ielas-golden match --mode ielas --config <json>` process and is scored by `ielas-eval
-score` exactly as docs/EVALUATION.md defines it (bad-3 with invalid = bad, D1, density); the point's figure is
+score` exactly as docs/evaluation.md defines it (bad-3 with invalid = bad, D1, density); the point's figure is
 the plain mean over its pairs. Results are cached by (configuration bytes, golden and eval binaries, pair list).
 """
 import csv
@@ -29,7 +29,7 @@ def pairs(resolution, data):
 
     kitti: the KITTI 2012 #70 grey pair (noc) and KITTI 2015 #46 (all), the regions of the goal families.
     tsukuba: centred 640x480 crops of Middlebury 2006 Reindeer and Wood2 (all) and 2014 Motorcycle (noc), as
-    EVALUATION.md prescribes for New Tsukuba-sized configurations (New Tsukuba itself has no reachable GT).
+    docs/evaluation.md prescribes for New Tsukuba-sized configurations (New Tsukuba itself has no reachable GT).
     small (SWEEP=quick only): centred 128x64 crops of Middlebury 2001 tsukuba and venus (all; disparities < 20).
     """
     k12, k15 = f"{data}/kitti2012/training", f"{data}/kitti2015/training"

@@ -472,13 +472,13 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
           "gen. BRAM36 = bits / 36864, a capacity lower bound that ignores the port width (a 96-bit-wide buffer "
           "uses more blocks than its bits need).",
           "- **Cycle model** (analytic): one W x H frame at 1 pixel per clock with no input gaps and no "
-          "back-pressure takes the no-stall bound of INTERFACES.md section 4, cycles = W*H + latencyRows*W + c, "
+          "back-pressure takes the no-stall bound of docs/interfaces.md section 4, cycles = W*H + latencyRows*W + c, "
           "with latencyRows and c from `IElas.latencyRows` / `IElas.cycleSlack` (the same figures the stage tests "
           "check as a bound). cycles/px = cycles / (W*H); fps = 200 MHz / cycles (no blanking counted). "
           "At least two points per resolution, kitti d255 among them, go through the Verilator hardware "
           "(`make sweep-hwcheck`, section above).",
           "- **Accuracy**: the golden `ielas` model with the point's configuration (robotics and its middlebury "
-          "twin), fresh process per pair, scored as docs/EVALUATION.md defines it: bad-3 = % of ground-truth pixels "
+          "twin), fresh process per pair, scored as docs/evaluation.md defines it: bad-3 = % of ground-truth pixels "
           "with |d - gt| > 3, invalid counted as bad; D1 = |err| > 3 px and > 5 % of gt, invalid = bad; density = % "
           "with a valid prediction. Mean over pairs. kitti: KITTI 2012 #70 (noc) and KITTI 2015 #46 (all). "
           "tsukuba: centred 640x480 crops of Middlebury 2006 Reindeer and Wood2 (all) and 2014 Motorcycle (noc). "

@@ -65,7 +65,8 @@ Config loadConfig(const std::string& nameOrFile);
 // maximum size = the given frame size, and a prior table computed here.
 Config presetConfig(const std::string& parameterSet, int dispMax, int width, int height);
 
-// P[delta] = trunc((ln gamma - ln(gamma + exp(-delta^2 / (2 sigma^2)))) / beta), delta = 0..dispMax (ELAS_SPEC §0).
+// P[delta] = trunc((ln gamma - ln(gamma + exp(-delta^2 / (2 sigma^2)))) / beta), delta = 0..dispMax
+// (docs/ALGORITHM.md, Configurations and frames).
 std::vector<int> computePriorTable(int dispMax, double gamma, double sigma, double beta);
 
 // Throws std::runtime_error naming the first illegal parameter (the same ranges as ElasParams).

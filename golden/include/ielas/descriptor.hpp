@@ -10,8 +10,8 @@ namespace ielas {
 
 constexpr int kDescriptorBytes = 16;
 
-// du/dv (CV_8U, H x W) of ELAS_SPEC §2. Defined for 1 <= x <= W-2, 1 <= y <= H-2; the frame border is 128
-// (a zero gradient) and is never read by the descriptor.
+// du/dv (CV_8U, H x W) of docs/ALGORITHM.md (descriptor, step 1). Defined for 1 <= x <= W-2, 1 <= y <= H-2;
+// the frame border is 128 (a zero gradient) and is never read by the descriptor.
 void sobel(const cv::Mat& image8, cv::Mat& du, cv::Mat& dv);
 
 // Descriptor image: H x W, CV_8UC(16). Window radius r = windowSize / 2; pixels closer than r + 1 to the

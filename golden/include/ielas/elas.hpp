@@ -1,6 +1,6 @@
 // `match --mode elas`: a faithful float reimplementation of libelas (Geiger, Roser, Urtasun, ACCV 2010) at full
-// resolution, single thread. ELAS_SPEC.md describes every stage; docs/ALGORITHM.md ("elas mode: departures from
-// libelas") lists where this code knowingly differs.
+// resolution, single thread. docs/ALGORITHM.md ("elas mode: departures from libelas") lists the libelas quirks it
+// keeps and where this code knowingly differs.
 #pragma once
 #include <cstdint>
 #include <vector>

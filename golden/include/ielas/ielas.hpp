@@ -1,4 +1,4 @@
-// The whole `ielas` mode: every stage in order, with the arrays the dumps hold (INTERFACES.md §3).
+// The whole `ielas` mode: every stage in order, with the arrays the dumps hold (docs/interfaces.md §3).
 #pragma once
 #include <string>
 #include <utility>
@@ -18,7 +18,7 @@ struct IelasFrame {
   cv::Mat support, filtered;   // Lh x Lw CV_16S, -1 = none
   cv::Mat lattice;             // Lh x Lw CV_16S, every node filled
   Grid gridL, gridR;
-  // Late stages (g3); `lateError` holds why they stopped when one is not available yet.
+  // Late stages; `lateError` holds why they stopped when one is not available yet.
   bool hasPlanes = false, hasDense = false, hasLrCheck = false, hasDisparity = false;
   Planes planes;
   cv::Mat denseL, denseR, lrL, lrR;  // H x W CV_16S, -1 = invalid

@@ -9,7 +9,7 @@
 namespace ielas {
 
 // lattice_L: CV_16S Lh x Lw, every node in 0..dispMax. `filtered` is support_filtered_L (-1 = none).
-// The rule is cfg.fillRule: "r7" (IELAS_STUDY round 2) or "paper" (sDelta px, epsilon, fillC).
+// The rule is cfg.fillRule: "r7" (docs/ALGORITHM.md, interp) or "paper" (sDelta px, epsilon, fillC).
 cv::Mat fillLattice(const cv::Mat& filtered, int W, int H, const Config& cfg);
 
 cv::Mat fillLatticeR7(const cv::Mat& filtered, int epsilon);

@@ -1,4 +1,4 @@
-// Stage `lrcheck`: dense left/right consistency (ELAS_SPEC §9), per row.
+// Stage `lrcheck`: dense left/right consistency (docs/ALGORITHM.md, lrcheck), per row.
 #pragma once
 #include <opencv2/core.hpp>
 #include "ielas/config.hpp"

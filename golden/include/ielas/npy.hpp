@@ -1,4 +1,4 @@
-// NumPy .npy files, version 1.0, little-endian, C order, dtypes |u1 <i2 <u2 <i4 (INTERFACES.md §3).
+// NumPy .npy files, version 1.0, little-endian, C order, dtypes |u1 <i2 <u2 <i4 (docs/interfaces.md §3).
 #pragma once
 #include <cstdint>
 #include <string>

@@ -1,4 +1,4 @@
-// Arrays passed between golden stages. Shapes and invalid codes match the .npy dumps (INTERFACES.md §3).
+// Arrays passed between golden stages. Shapes and invalid codes match the .npy dumps (docs/interfaces.md §3).
 #pragma once
 #include <cstdint>
 #include <vector>

@@ -1,4 +1,4 @@
-// `match --mode elas`: libelas's Elas::process at full resolution, stage by stage (ELAS_SPEC §1-10).
+// `match --mode elas`: libelas's Elas::process at full resolution, stage by stage (docs/ALGORITHM.md, elas mode).
 #include "ielas/elas.hpp"
 
 #include <stdexcept>

@@ -1,4 +1,4 @@
-// libelas dense matching: triangle rasterisation in float and the per-pixel MAP search (ELAS_SPEC §8).
+// libelas dense matching: triangle rasterisation in float and the per-pixel MAP search (docs/ALGORITHM.md, elas mode).
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>

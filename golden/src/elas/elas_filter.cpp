@@ -1,4 +1,5 @@
-// libelas support filters (in place, sequential), the support list and the corner points (ELAS_SPEC §4.3-4.6).
+// libelas support filters (in place, sequential), the support list and the corner points
+// (docs/ALGORITHM.md, elas mode).
 #include <algorithm>
 #include <cstdlib>
 

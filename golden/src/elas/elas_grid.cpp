@@ -1,4 +1,4 @@
-// libelas disparity-candidate grid with its linear-walk dilation (ELAS_SPEC §7).
+// libelas disparity-candidate grid with its linear-walk dilation (docs/ALGORITHM.md, elas mode).
 #include <algorithm>
 #include <cmath>
 

@@ -1,4 +1,4 @@
-// libelas dense left/right consistency check on copies of both maps (ELAS_SPEC §9).
+// libelas dense left/right consistency check on copies of both maps (docs/ALGORITHM.md, elas mode).
 #include <cmath>
 
 #include "ielas/elas.hpp"

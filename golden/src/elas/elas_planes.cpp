@@ -1,4 +1,4 @@
-// libelas disparity planes: Numerical-Recipes Gauss-Jordan in double, stored as float (ELAS_SPEC §6).
+// libelas disparity planes: Numerical-Recipes Gauss-Jordan in double, stored as float (docs/ALGORITHM.md, elas mode).
 #include <cmath>
 #include <utility>
 

@@ -1,4 +1,5 @@
-// libelas post-processing: small-segment removal, gap interpolation, adaptive mean, median (ELAS_SPEC §10).
+// libelas post-processing: small-segment removal, gap interpolation, adaptive mean, median
+// (docs/ALGORITHM.md, elas mode).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>

@@ -1,4 +1,5 @@
-// libelas support matching: 4-corner descriptor window, best/second-best ratio test, L/R check (ELAS_SPEC §4.1-4.2).
+// libelas support matching: 4-corner descriptor window, best/second-best ratio test, L/R check
+// (docs/ALGORITHM.md, elas mode).
 #include <algorithm>
 #include <cstdlib>
 

@@ -1,6 +1,6 @@
-// Delaunay triangulation of the support points (ELAS_SPEC §5), own code: incremental Bowyer-Watson with ghost
-// triangles for the convex hull and exact integer predicates. libelas uses Shewchuk's Triangle; the triangle set
-// is the same up to the choice of diagonal among cocircular points, the triangle order is not (ALGORITHM.md).
+// Delaunay triangulation of the support points, own code: incremental Bowyer-Watson with ghost triangles for the
+// convex hull and exact integer predicates. libelas uses Shewchuk's Triangle; the triangle set is the same up to
+// the choice of diagonal among cocircular points, the triangle order is not (docs/ALGORITHM.md, elas mode).
 #include <algorithm>
 #include <cstdint>
 #include <set>

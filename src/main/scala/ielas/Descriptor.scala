@@ -9,7 +9,7 @@ case class MemoryUse(module: String, name: String, rows: Int, bitsPerRow: Int, n
   override def toString: String = f"$module%-12s $name%-12s $rows%6d rows x $bitsPerRow%4d bits = $bits%9d bits  ($note)"
 }
 
-/** Sobel gradients (ELAS_SPEC §2) and the 16-byte descriptor (docs/ALGORITHM.md §2) of both views, streaming.
+/** Sobel gradients and the 16-byte descriptor (docs/ALGORITHM.md, descriptor steps 1-2) of both views, streaming.
   *
   * Every accepted pixel is one "step" of a raster-order pipeline. A step at input index k emits the descriptor of
   * output index k - latencySteps, latencySteps = m*W + m + 1 (m = descriptorMargin): by then every pixel that

@@ -3,7 +3,7 @@ package ielas
 import chisel3._
 import chisel3.util._
 
-/** The top's input framing check (INTERFACES.md §4 "Malformed frames"): turns the raw pixel input into a clean
+/** The top's input framing check (docs/interfaces.md §4, malformed frames): turns the raw pixel input into a clean
   * stream in which every frame is exactly W x H (W x H = frameWidth x frameHeight sampled at its start of frame),
   * with sof on its first pixel and eol on the last pixel of each line, so no later stage ever sees a malformed
   * frame.

@@ -2,8 +2,8 @@ package ielas
 
 import chisel3._
 
-/** The 3x3 Sobel of ELAS_SPEC §2 as combinational functions: integer, arithmetic shift, unsigned saturation.
-  * `window` holds columns x-1, x, x+1, each as rows (y-1, y, y+1) of 8-bit pixels.
+/** The 3x3 Sobel of docs/ALGORITHM.md (descriptor, step 1) as combinational functions: integer, arithmetic shift,
+  * unsigned saturation. `window` holds columns x-1, x, x+1, each as rows (y-1, y, y+1) of 8-bit pixels.
   */
 object Sobel {
   /** S = I(y-1) + 2 I(y) + I(y+1): 0..1020. */

@@ -3,7 +3,7 @@ package ielas
 import chisel3._
 import chisel3.util._
 
-/** One beat of the stereo pixel input, AXI4-Stream video style (INTERFACES.md §4):
+/** One beat of the stereo pixel input, AXI4-Stream video style (docs/interfaces.md §4):
   * tdata = {left, right}, tuser(0) = start of frame (first pixel), tlast = end of line (last pixel of each line).
   */
 class PixelPair extends Bundle {
@@ -34,7 +34,7 @@ class DescriptorPair(bytes: Int) extends Bundle {
 
 /** The frame size ports (frameWidth, frameHeight) are sampled at start of frame. */
 object FrameSize {
-  /** The legal frame size range (INTERFACES.md §1): 32x16 up to the configuration's maximum. */
+  /** The legal frame size range (docs/interfaces.md §1): 32x16 up to the configuration's maximum. */
   val minWidth = 32
   val minHeight = 16
 

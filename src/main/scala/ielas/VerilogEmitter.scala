@@ -2,7 +2,7 @@ package ielas
 
 import java.nio.file.Path
 
-/** Emits SystemVerilog with firtool options that Verilator lint and Yosys 0.23 both accept (TOOLCHAIN.md). */
+/** Emits SystemVerilog with firtool options that Verilator lint and Yosys 0.23 both accept (docs/toolchain.md). */
 object VerilogEmitter {
   val firtoolOptions: Array[String] = Array(
     "-disable-all-randomization",
@@ -22,7 +22,7 @@ object VerilogEmitter {
 
   def emitTop(p: ElasParams, dir: Path): Unit = {
     emit(new IElas(p), dir)
-    // Verilator -Wall waivers for firtool's output, one reason each (INTERFACES.md §5).
+    // Verilator -Wall waivers for firtool's output, one reason each (docs/interfaces.md §5, docs/toolchain.md).
     val waivers = Seq(
       "// firtool keeps the full width of sums whose low bits the Sobel's arithmetic >> 2 drops, and of column",
       "// counters one bit wider than the line-buffer address (they also hold the width itself): unused by design.",

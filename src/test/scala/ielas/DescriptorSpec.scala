@@ -44,9 +44,10 @@ object DescriptorSpec {
     }
   }
 
-  /** A single 255 pixel at (x0, y0) on black. Gradients by hand (ELAS_SPEC §2): S(y0,x0) = 510, S(y0+-1,x0) = 255,
-    * so du(x0+1, y0) = (510 >> 2) + 128 = 255, du(x0-1, y0) = (-510 >> 2) + 128 = -128 + 128 = 0,
-    * du(x0+1, y0+-1) = (255 >> 2) + 128 = 191, du(x0-1, y0+-1) = (-255 >> 2) + 128 = -64 + 128 = 64;
+  /** A single 255 pixel at (x0, y0) on black. Gradients by hand (docs/ALGORITHM.md, descriptor step 1):
+    * S(y0,x0) = 510, S(y0+-1,x0) = 255, so du(x0+1, y0) = (510 >> 2) + 128 = 255,
+    * du(x0-1, y0) = (-510 >> 2) + 128 = -128 + 128 = 0, du(x0+1, y0+-1) = (255 >> 2) + 128 = 191,
+    * du(x0-1, y0+-1) = (-255 >> 2) + 128 = -64 + 128 = 64;
     * T(y0+1, x0) = 255, T(y0-1, x0) = -255, so dv(x0, y0+1) = 255, dv(x0+-1, y0+1) = 191, dv(x0, y0-1) = 0,
     * dv(x0+-1, y0-1) = 64; every other gradient is 128.
     */

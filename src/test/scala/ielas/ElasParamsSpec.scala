@@ -30,7 +30,7 @@ class ElasParamsSpec extends AnyFlatSpec with Matchers {
     e.getMessage should include("bad.json: malformed JSON")
   }
 
-  "the prior table" should "match libelas's values (ELAS_SPEC §0)" in {
+  "the prior table" should "match libelas's values (docs/ALGORITHM.md)" in {
     ElasParams.byName("kitti").priorTable.take(5) shouldBe Seq(-14, -9, -2, 0, 0)
     ElasParams.byName("kitti-middlebury").priorTable.take(5) shouldBe Seq(-9, -5, -1, 0, 0)
     ElasParams.byName("kitti").planeRadius shouldBe 2

@@ -90,7 +90,7 @@ object FrameGuardSpec {
   case class Expected(beats: IndexedSeq[(OutBeat, String)], aborted: Seq[(Boolean, String)], error: Boolean,
       deadline: Seq[Long] = Nil)
 
-  /** What the guard must put out, from the frames' description (INTERFACES.md §4 and the FrameGuard rules). */
+  /** What the guard must put out, from the frames' description (docs/interfaces.md §4 and the FrameGuard rules). */
   def expected(p: ElasParams, frames: Seq[FrameIn]): Expected = {
     val beats = IndexedSeq.newBuilder[(OutBeat, String)]
     val aborted = Seq.newBuilder[(Boolean, String)]

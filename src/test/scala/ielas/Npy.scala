@@ -4,7 +4,7 @@ import java.nio.{ByteBuffer, ByteOrder}
 import java.nio.charset.StandardCharsets
 import java.nio.file.{Files, Path}
 
-/** A NumPy .npy (version 1.0) array: little-endian, C order (INTERFACES.md §3). Values are kept as raw bytes. */
+/** A NumPy .npy (version 1.0) array: little-endian, C order (docs/interfaces.md §3). Values are kept as raw bytes. */
 case class NpyArray(dtype: String, shape: Seq[Int], raw: Array[Byte]) {
   val itemBytes: Int = NpyArray.itemBytes(dtype)
   val count: Long = shape.map(_.toLong).product

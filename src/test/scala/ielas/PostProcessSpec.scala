@@ -348,7 +348,7 @@ object PostProcessSpec {
     }
   }
 
-  /** INTERFACES.md §4: N pixels with no stalls complete within N + latencyRows * W + c cycles. */
+  /** docs/interfaces.md §4: N pixels with no stalls complete within N + latencyRows * W + c cycles. */
   def throughputBound(p: ElasParams, w: Int, h: Int): (Long, String) = {
     val c = 4 * p.speckleWindowRows + 64
     val rows = PostProcess.latencyRows(p)

@@ -7,7 +7,7 @@ import java.nio.file.{Path, Paths}
 import scala.util.Random
 
 /** The dump arrays of one stage as the hardware put them out (name -> (dtype, shape, values)), in the golden
-  * model's file names (INTERFACES.md §3), plus the cycle count and the framing errors seen.
+  * model's file names (docs/interfaces.md §3), plus the cycle count and the framing errors seen.
   */
 case class StageOutput(arrays: Seq[(String, String, Seq[Int], Array[Long])], cycles: Long, framingErrors: Seq[String]) {
   def write(dir: Path): Seq[Path] = arrays.map { case (name, dtype, shape, values) =>
