@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Does the sum of per-module Yosys runs agree with a whole-top run? (the issue: equal RAMB36/RAMB18 counts, LUT
-and FF within 5 %, on two points). Runs scripts/synth.sh in `both` mode on each point's Verilog and writes the
-comparison to docs/sweep/agreement.json (full) or build/sweep-quick/agreement.json (quick), which report.py
+"""Does the sum of per-module Yosys runs agree with a whole-top run? (agreement = equal RAMB36/RAMB18 counts,
+LUT and FF within 5 %, checked on two points). Runs scripts/synth.sh in `both` mode on each point's Verilog and
+writes the comparison to docs/sweep/agreement.json (full) or build/sweep-quick/agreement.json (quick), which report.py
 puts into docs/sweep.md.
 
 usage: agree.py --grid full|quick [POINT ...]    (full default: kitti-d63-s10-w5 tsukuba-d63-s10-w5, the two
@@ -31,7 +31,7 @@ TOLERANCE_PCT = 5.0
 
 
 def compare(top, mods):
-    """The issue's criterion on two resource tables."""
+    """The agreement criterion (module docstring) on two resource tables."""
     def pct(k):
         return 100.0 * (mods[k] - top[k]) / top[k] if top[k] else (0.0 if mods[k] == 0 else float("inf"))
     c = {"LUT_diff_pct": round(pct("LUT"), 2), "FF_diff_pct": round(pct("FF"), 2),

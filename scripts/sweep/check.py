@@ -3,8 +3,9 @@
 
 usage: check.py --grid quick|full
 quick: every point of the grid is recorded and ok, with resources, a passing line-buffer check, the cycle model
-and accuracy in range; the sum-vs-top agreement holds; sweep.md and the plots exist. full: the issue's "done
-when" (at most 4 failures, kitti-d255-s20-w5 not among them, every other point with LUT/FF/BRAM figures).
+and accuracy in range; the sum-vs-top agreement holds; sweep.md and the plots exist. full: the full
+grid's completion criterion (at most 4 failures, kitti-d255-s20-w5 not among them, every other point with
+LUT/FF/BRAM figures).
 Exit 0 when everything holds, 1 otherwise (each problem printed).
 """
 import argparse

@@ -10,7 +10,7 @@ import tempfile
 sys.dont_write_bytecode = True
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
-CLOCK_HZ = 200e6  # the issue's reference clock for fps
+CLOCK_HZ = 200e6  # the reference clock of the fps figures (docs/sweep.md)
 BRAM36_BITS = 36 * 1024
 
 # One row per point in docs/sweep/results.csv (build/sweep-quick/results.csv for SWEEP=quick).
@@ -72,7 +72,7 @@ def generator_hash(root=ROOT):
 
 def cycle_model(width, height, latency_rows, slack, clock_hz=CLOCK_HZ):
     """One frame of W x H pixels at 1 pixel per clock, no input gaps, no back-pressure: the no-stall bound of
-    INTERFACES.md §4, N + latencyRows * W + c cycles with N = W * H (docs/sweep.md, "Cycle model")."""
+    docs/interfaces.md §4, N + latencyRows * W + c cycles with N = W * H (docs/sweep.md, "Cycle model")."""
     n = width * height
     cycles = n + latency_rows * width + slack
     return {"cycles_per_frame": cycles, "cycles_per_pixel": round(cycles / n, 4),

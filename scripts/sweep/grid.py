@@ -14,7 +14,7 @@ sys.dont_write_bytecode = True
 # resolution -> (base configuration in ElasParams.named, maxWidth, maxHeight); the sizes are for the report only
 # (the JSON written by ElasParams is what counts).
 RESOLUTIONS = {"kitti": ("kitti", 1242, 376), "tsukuba": ("tsukuba", 640, 480), "small": ("small", 128, 64)}
-# The two named configurations where the window size is varied (the issue: "at the two named configurations").
+# The two named configurations, where the window size is varied.
 NAMED = {"kitti": 255, "tsukuba": 127}
 PARAMETER_SETS = ("robotics", "middlebury")
 
