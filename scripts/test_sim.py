@@ -216,8 +216,9 @@ class HarnessTest(unittest.TestCase):
             f.write("{ \"maxWidth\": 128, ")
         cases = [
             ({"left": self.path("missing.pgm")}, r"cannot read image .*missing\.pgm"),
-            ({"left": self.path("junk.png")}, r"not a PNG/PGM image"),
-            ({"left": self.path("deep.pgm"), "right": self.path("deep.pgm")}, r"deeper than 8 bits"),
+            ({"left": self.path("junk.png")}, r"junk\.png: not a PNG or PGM image"),
+            ({"left": self.path("deep.pgm"), "right": self.path("deep.pgm")},
+             r"deep\.pgm: 16-bit PGM \(maxval 65535; 8-bit expected\)"),
             ({"right": self.path("b_R.pgm")}, r"left/right size mismatch: 100x40 vs 128x64"),
             ({"left": self.path("big.pgm"), "right": self.path("big.pgm")}, r"129x40 is outside 32x16\.\.128x64"),
             ({"left": self.path("tall.pgm"), "right": self.path("tall.pgm")}, r"100x65 is outside"),

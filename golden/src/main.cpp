@@ -31,17 +31,26 @@ bool endsWith(const std::string& s, const std::string& tail) {
   return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
 }
 
-int parseInt(const std::string& option, const std::string& text) {
-  size_t used = 0;
-  int v = 0;
-  try {
-    v = std::stoi(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
+// A decimal integer in lo..hi; anything else (a fraction, an exponent, a number that does not fit) is refused
+// with the legal range instead of being wrapped or clamped.
+int parseInt(const std::string& option, const std::string& text, long long lo, long long hi) {
+  size_t at = text.size() > 1 && text[0] == '-' ? 1 : 0;
+  bool ok = at < text.size() && text.size() - at <= 10;
+  long long v = 0;
+  for (size_t i = at; ok && i < text.size(); ++i) {
+    ok = text[i] >= '0' && text[i] <= '9';
+    v = v * 10 + (text[i] - '0');
   }
-  if (used != text.size() || text.empty()) throw std::runtime_error(option + " needs an integer, got '" + text + "'");
-  return v;
+  if (at == 1) v = -v;
+  if (!ok || v < lo || v > hi)
+    throw std::runtime_error(option + " " + (text.empty() ? "''" : text) + " is not an integer in " +
+                             std::to_string(lo) + ".." + std::to_string(hi));
+  return static_cast<int>(v);
 }
+
+// The integer options and their ranges (--epsilon and --fill-c are checked against dispMax by validateConfig).
+const std::map<std::string, std::pair<int, int>> kIntOptions = {
+    {"--disp-max", {1, 1023}}, {"--sdelta", {0, 8192}}, {"--epsilon", {0, 1023}}, {"--fill-c", {0, 1023}}};
 
 struct Options {
   std::string command;
@@ -54,6 +63,11 @@ struct Options {
     return it->second;
   }
 };
+
+int intOption(const Options& o, const std::string& option) {
+  const auto& range = kIntOptions.at(option);
+  return parseInt(option, o.get(option), range.first, range.second);
+}
 
 Options parseArgs(int argc, char** argv) {
   static const std::set<std::string> withValue = {"--mode", "--preset", "--disp-max", "--config", "--left", "--right",
@@ -82,7 +96,7 @@ Config buildConfig(const Options& o, const cv::Mat& left) {
   Config cfg;
   if (o.has("--preset")) {
     const std::string& set = o.get("--preset");
-    int dispMax = o.has("--disp-max") ? parseInt("--disp-max", o.get("--disp-max")) : 255;
+    int dispMax = o.has("--disp-max") ? intOption(o, "--disp-max") : 255;
     cfg = presetConfig(set, dispMax, left.cols, left.rows);
   } else {
     cfg = loadConfig(o.get("--config"));
@@ -92,9 +106,9 @@ Config buildConfig(const Options& o, const cv::Mat& left) {
     if (rule != "paper" && rule != "r7") throw std::runtime_error("unknown --interp '" + rule + "' (legal: paper, r7)");
     cfg.fillRule = rule;
   }
-  if (o.has("--sdelta")) cfg.sDelta = parseInt("--sdelta", o.get("--sdelta"));
-  if (o.has("--epsilon")) cfg.epsilon = parseInt("--epsilon", o.get("--epsilon"));
-  if (o.has("--fill-c")) cfg.fillC = parseInt("--fill-c", o.get("--fill-c"));
+  if (o.has("--sdelta")) cfg.sDelta = intOption(o, "--sdelta");
+  if (o.has("--epsilon")) cfg.epsilon = intOption(o, "--epsilon");
+  if (o.has("--fill-c")) cfg.fillC = intOption(o, "--fill-c");
   if (o.has("--grid-keep")) cfg.gridKeep = o.get("--grid-keep");
   if (o.has("--grid-corners")) cfg.gridCorners = o.get("--grid-corners");
   validateConfig(cfg);
@@ -122,6 +136,8 @@ int run(int argc, char** argv) {
     throw std::runtime_error("--out must end in .pfm or .png");
   if (o.has("--preset") && o.get("--preset") != "robotics" && o.get("--preset") != "middlebury")
     throw std::runtime_error("unknown preset '" + o.get("--preset") + "' (legal: robotics, middlebury)");
+  for (const auto& option : kIntOptions)  // number errors before any image is read
+    if (o.has(option.first)) intOption(o, option.first);
   // The configuration first (its errors do not depend on the images), except for --preset, which needs the size.
   Config cfg;
   if (o.has("--config")) cfg = loadConfig(o.get("--config"));

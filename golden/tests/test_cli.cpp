@@ -1,9 +1,11 @@
 // The command-line contract of INTERFACES.md §2-3: one-line errors with a non-zero exit, dump files, compare.
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 #include <sys/stat.h>
 #include <sys/wait.h>
 
@@ -85,16 +87,57 @@ int main() {
   cv::imwrite(kTmp + "/colour.png", colour);
   { std::ofstream(kTmp + "/broken.json") << "{ \"name\": \"x\", "; }
   { std::ofstream(kTmp + "/notimage.png") << "hello"; }
+  // Damaged and unsupported images, each written here from a good one.
+  {
+    std::vector<unsigned char> png;
+    cv::imencode(".png", left, png);
+    std::ofstream(kTmp + "/truncated.png", std::ios::binary).write(reinterpret_cast<const char*>(png.data()),
+                                                                   static_cast<std::streamsize>(png.size() / 2));
+    // A flipped byte inside the compressed pixels: the chunks are intact, so libpng itself finds the damage.
+    std::vector<unsigned char> corrupt = png;
+    const std::string bytes(corrupt.begin(), corrupt.end());
+    corrupt[bytes.find("IDAT") + 20] ^= 0x5a;
+    std::ofstream(kTmp + "/corrupt.png", std::ios::binary).write(reinterpret_cast<const char*>(corrupt.data()),
+                                                                 static_cast<std::streamsize>(corrupt.size()));
+    cv::Mat bilevel = left > 127;
+    cv::imwrite(kTmp + "/bilevel.png", bilevel, {cv::IMWRITE_PNG_BILEVEL, 1});
+    std::ofstream pgm(kTmp + "/truncated.pgm", std::ios::binary);
+    pgm << "P5\n64 32\n255\n" << std::string(64 * 10, '\x40');
+    std::ofstream deepPgm(kTmp + "/deep.pgm", std::ios::binary);
+    deepPgm << "P5\n64 32\n65535\n" << std::string(64 * 32 * 2, '\x01');
+    std::ofstream ppm(kTmp + "/colour.ppm", std::ios::binary);
+    ppm << "P6\n64 32\n255\n" << std::string(64 * 32 * 3, '\x40');
+    std::ofstream plain(kTmp + "/plain.pgm");
+    plain << "P2\n# plain PGM\n64 32\n255\n";
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 64; ++x) plain << static_cast<int>(left.at<uint8_t>(y, x)) << (x == 63 ? "\n" : " ");
+  }
 
   const std::string pair = " --left " + L + " --right " + R;
   expectError("dump --mode ielas --config small --left " + kTmp + "/missing.png --right " + R + " --out " + kTmp + "/d",
               "cannot read image");
   expectError("dump --mode ielas --config small --left " + kTmp + "/notimage.png --right " + R + " --out " + kTmp + "/d",
-              "cannot read image");
+              "notimage.png: not a PNG or PGM image");
+  expectError("dump --mode ielas --config small --left " + kTmp + "/colour.ppm --right " + R + " --out " + kTmp + "/d",
+              "colour.ppm: not a PNG or PGM image");
+  expectError("dump --mode ielas --config small --left " + L + " --right " + kTmp + "/truncated.png --out " + kTmp + "/d",
+              "truncated.png: truncated or corrupt PNG");
+  expectError("dump --mode ielas --config small --left " + kTmp + "/corrupt.png --right " + R + " --out " + kTmp + "/d",
+              "corrupt.png: truncated or corrupt PNG (libpng: ");
+  expectError("dump --mode ielas --config small --left " + kTmp + "/truncated.pgm --right " + R + " --out " + kTmp + "/d",
+              "truncated.pgm: truncated PGM (64x32 needs 2048 bytes of pixels, the file has 640)");
+  expectError("dump --mode ielas --config small --left " + kTmp + "/bilevel.png --right " + R + " --out " + kTmp + "/d",
+              "bilevel.png: 1-bit PNG (8-bit grey or colour expected)");
+  expectError("dump --mode ielas --config small --left " + kTmp + "/deep.pgm --right " + R + " --out " + kTmp + "/d",
+              "deep.pgm: 16-bit PGM (maxval 65535; 8-bit expected)");
+  expectError("match --mode ielas --preset robotics --disp-max 1e10" + std::string(" --left ") + L + " --right " + R +
+              " --out " + kTmp + "/x.pfm", "--disp-max 1e10 is not an integer in 1..1023");
+  expectError("match --mode ielas --preset robotics --disp-max 10000000000 --left " + L + " --right " + R + " --out " +
+              kTmp + "/x.pfm", "--disp-max 10000000000 is not an integer in 1..1023");
   expectError("dump --mode ielas --config small --left " + L + " --right " + kTmp + "/wide.png --out " + kTmp + "/d",
               "size mismatch");
   expectError("dump --mode ielas --config small --left " + kTmp + "/deep.png --right " + R + " --out " + kTmp + "/d",
-              "deeper than 8 bits");
+              "deep.png: 16-bit PNG (8-bit grey or colour expected)");
   expectError("dump --mode ielas --config small --left " + kTmp + "/big.png --right " + kTmp + "/big_r.png --out " +
               kTmp + "/d", "outside 32x16..128x64");
   expectError("dump --mode ielas --preset robotics --left " + kTmp + "/small.png --right " + kTmp + "/small_r.png --out " +
@@ -110,6 +153,7 @@ int main() {
   // A good dump: the early-stage files with the documented shapes and dtypes.
   Result ok = run(kBin + " dump --mode ielas --config small" + pair + " --out " + kTmp + "/dumpA");
   CHECK_EQ(ok.exitCode, 0);
+  CHECK(ok.err.empty());
   NpyArray desc = readNpy(kTmp + "/dumpA/descriptor_L.npy");
   CHECK(desc.descr == "|u1");
   CHECK(desc.shape == std::vector<int>({32, 64, 16}));
@@ -123,6 +167,15 @@ int main() {
   // A colour input is accepted (converted to grey).
   CHECK_EQ(run(kBin + " dump --mode ielas --preset middlebury --disp-max 31 --left " + kTmp + "/colour.png --right " +
                kTmp + "/colour.png --out " + kTmp + "/dumpC").exitCode, 0);
+
+  // A plain (P2) PGM of the left view is accepted, silently, and gives the same dump.
+  {
+    Result plain = run(kBin + " dump --mode ielas --config small --left " + kTmp + "/plain.pgm --right " + R + " --out " +
+                       kTmp + "/dumpP");
+    CHECK_EQ(plain.exitCode, 0);
+    CHECK(plain.err.empty());
+    CHECK(readAll(kTmp + "/dumpP/disparity.npy") == readAll(kTmp + "/dumpA/disparity.npy"));
+  }
 
   // compare: identical dumps pass; a changed value fails, names the file and index, and writes a diff image.
   CHECK_EQ(run(kBin + " dump --mode ielas --config small" + pair + " --out " + kTmp + "/dumpB").exitCode, 0);

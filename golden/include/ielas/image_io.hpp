@@ -8,8 +8,10 @@
 
 namespace ielas {
 
-// Reads an 8-bit image as CV_8U grey (colour via COLOR_BGR2GRAY). Throws std::runtime_error (one line) when the
-// file cannot be read or is deeper than 8 bits.
+// Reads a PNG or PGM image with 8 bits per sample as CV_8U grey (colour via COLOR_BGR2GRAY). Other bit depths
+// (1, 2, 4, 16) are rejected, not converted. The header is checked before decoding (a PNG must reach its IEND
+// chunk, a binary PGM must hold all its pixels) and the decoders print nothing: every problem is one
+// std::runtime_error line such as "image L.png: truncated or corrupt PNG (no IEND chunk)".
 cv::Mat loadGray8(const std::string& path);
 
 // Throws unless both images have the same size and it lies in 32x16 .. maxWidth x maxHeight.
