@@ -37,6 +37,19 @@ help: ## this list
 	@echo "           LEFT= RIGHT= GT= (a stereo pair, PNG/PGM)  OUT=<dir>  A= B= (dump dirs for compare)"
 	@echo "           MODE=elas|ielas PRESET=robotics|middlebury (eval)  IELAS_SEED=<n> (replay a test seed)"
 
+# ---- input preflight: scripts/check_inputs.py checks LEFT, RIGHT, GT, CONFIG and POINT in milliseconds (one line,
+# exit 2). It is the first prerequisite of the targets that take them, and the installs that every long build waits
+# for wait for it (order-only), so even `make -j` starts no build before it. PREFLIGHT: each target's arguments.
+.PHONY: check-inputs
+check-inputs: ## check LEFT, RIGHT, GT, CONFIG, POINT (images, sizes, names) without building anything
+	@python3 scripts/check_inputs.py $(PREFLIGHT)
+deps-sim deps-golden deps-synth: | check-inputs
+run: PREFLIGHT = --config '$(CONFIG)' --left '$(LEFT)' --right '$(RIGHT)' --gt '$(GT)'
+simulate: PREFLIGHT = --config '$(CONFIG)' --left '$(LEFT)' --right '$(RIGHT)' --require left,right
+eval: PREFLIGHT = --config '$(if $(PRESET),,$(CONFIG))'
+verilog lint synth: PREFLIGHT = --config '$(CONFIG)'
+sweep-point: PREFLIGHT = --point '$(POINT)' --require point
+
 # ---- installs (idempotent; skipped when present) ----
 deps: deps-sim deps-golden ## install Verilator and OpenCV if missing (apt); sbt comes from ./sbt
 deps-sim:
@@ -60,16 +73,16 @@ test-golden: golden ## golden unit tests (hand-computed cases) and CLI error tes
 	ctest --test-dir golden/build --output-on-failure -j2
 
 # ---- hardware ----
-verilog: deps-sim ## SystemVerilog of the IElas top in build/verilog/<config>/ + memory summary
+verilog: check-inputs deps-sim ## SystemVerilog of the IElas top in build/verilog/<config>/ + memory summary
 	$(call SBT_RUN,"run verilog $(CONFIG) $(VERILOG_DIR)")
 	@$(MAKE) --no-print-directory lint CONFIG=$(CONFIG)
 
-lint: ## verilator --lint-only -Wall on build/verilog/<config>/*.sv (+ lint.vlt waivers)
+lint: check-inputs ## verilator --lint-only -Wall on build/verilog/<config>/*.sv (+ lint.vlt waivers)
 	@test -n "$$(ls $(VERILOG_DIR)/*.sv 2>/dev/null)" || { echo "lint: no Verilog in $(VERILOG_DIR) (run make verilog CONFIG=$(CONFIG))"; exit 1; }
 	verilator --lint-only -Wall $(wildcard $(VERILOG_DIR)/lint.vlt) $(VERILOG_DIR)/*.sv --top-module IElas
 	@echo "lint: clean ($(VERILOG_DIR))"
 
-simulate: deps-sim ## Verilator model up to STAGE: writes STAGE's .npy files and cycles.txt to OUT
+simulate: check-inputs deps-sim ## Verilator model up to STAGE: writes STAGE's .npy files and cycles.txt to OUT
 	@test -n "$(LEFT)" -a -n "$(RIGHT)" || { echo "simulate: set LEFT= and RIGHT="; exit 1; }
 ifeq ($(STAGE),top)
 	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
@@ -82,7 +95,7 @@ compare: $(COMPARE) ## compare every .npy in A= and B= (0 only if >= 1 file comp
 	@test -n "$(A)" -a -n "$(B)" || { echo "compare: set A= and B="; exit 1; }
 	$(COMPARE) $(A) $(B)
 
-run: golden verilog ## the main job: Verilog for kitti, then a stereo pair through the hardware in Verilator
+run: check-inputs golden verilog ## the main job: Verilog for kitti, then a stereo pair through the hardware in Verilator
 	scripts/sim.sh demo $(CONFIG) $(if $(LEFT),--left $(abspath $(LEFT))) $(if $(RIGHT),--right $(abspath $(RIGHT))) $(if $(GT),--gt $(abspath $(GT)))
 
 # ---- tests ----
@@ -104,13 +117,13 @@ test-full: deps-sim golden ## full-size frames end to end (not in CI): KITTI 124
 	scripts/test_full.sh
 
 # ---- measurements ----
-eval: golden ## accuracy tables: MODE=elas|ielas PRESET=robotics|middlebury or CONFIG=
+eval: check-inputs golden ## accuracy tables: MODE=elas|ielas PRESET=robotics|middlebury or CONFIG=
 	scripts/eval.sh $(MODE) $(if $(PRESET),--preset $(PRESET),--config $(CONFIG)) $(EVAL_ARGS)
 
 bench: deps-sim golden ## cycles/pixel, latency, fps, simulator speed at kitti and tsukuba -> docs/performance.md
 	scripts/bench.sh
 
-synth: deps-synth ## Yosys resource table for one configuration
+synth: check-inputs deps-synth ## Yosys resource table for one configuration
 	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
 	scripts/synth.sh $(CONFIG) $(VERILOG_DIR)
 
@@ -138,7 +151,7 @@ build/sweep-quick/configs/.done: $(SCALA_SRC) scripts/sweep/grid.py
 
 sweep-configs: build/sweep/configs/.done ## configuration JSONs of the full grid, from ElasParams (one sbt run)
 
-sweep-point: $(SWEEP_NEEDS) ## one sweep point, POINT=<name> (scripts/sweep/grid.py names full): a row of docs/sweep/results.csv
+sweep-point: check-inputs $(SWEEP_NEEDS) ## one sweep point, POINT=<name> (scripts/sweep/grid.py names full): a row of docs/sweep/results.csv
 	@test -n "$(POINT)" || { echo "sweep-point: set POINT= (one of: $$(python3 scripts/sweep/grid.py names full | tr '\n' ' '))"; exit 1; }
 	@$(MAKE) --no-print-directory build/sweep$(if $(filter quick,$(SWEEP_GRID)),-quick)/configs/.done
 	python3 scripts/sweep/point.py $(POINT)
