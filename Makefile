@@ -69,8 +69,9 @@ $(GOLDEN) $(COMPARE) &: $(GOLDEN_SRC) | deps-golden
 	cmake -S golden -B golden/build -DCMAKE_BUILD_TYPE=Release >/dev/null
 	cmake --build golden/build -j2
 
-test-golden: golden ## golden unit tests (hand-computed cases) and CLI error tests
+test-golden: golden ## golden unit tests (hand-computed cases), CLI error tests, input preflight tests
 	ctest --test-dir golden/build --output-on-failure -j2
+	IELAS_GOLDEN=$(abspath $(GOLDEN)) python3 scripts/test_check_inputs.py
 
 # ---- hardware ----
 verilog: check-inputs deps-sim ## SystemVerilog of the IElas top in build/verilog/<config>/ + memory summary
