@@ -70,11 +70,11 @@ def generator_hash(root=ROOT):
     return tree_hash([f for f in files if os.path.exists(f)], root)
 
 
-def cycle_model(width, height, latency_rows, slack, clock_hz=CLOCK_HZ):
-    """One frame of W x H pixels at 1 pixel per clock, no input gaps, no back-pressure: the no-stall bound of
-    docs/interfaces.md §4, N + latencyRows * W + c cycles with N = W * H (docs/sweep.md, "Cycle model")."""
+def cycle_model(width, height, latency_rows, slack, clock_hz=CLOCK_HZ, cycles_per_pixel=1):
+    """One frame of W x H pixels at one pixel every cyclesPerPixel clocks, no input gaps, no back-pressure: the
+    no-stall bound cyclesPerPixel x (N + latencyRows * W + c) cycles with N = W * H (docs/sweep.md, "Cycle model")."""
     n = width * height
-    cycles = n + latency_rows * width + slack
+    cycles = cycles_per_pixel * (n + latency_rows * width + slack)
     return {"cycles_per_frame": cycles, "cycles_per_pixel": round(cycles / n, 4),
             "fps_200MHz": round(clock_hz / cycles, 1), "latency_rows": latency_rows}
 

@@ -205,7 +205,8 @@ def run(point, grid_dir, force=False):
     try:
         with open(model_file) as fh:
             model = json.load(fh)
-        row.update(common.cycle_model(conf["maxWidth"], conf["maxHeight"], model["latencyRows"], model["cycleSlack"]))
+        row.update(common.cycle_model(conf["maxWidth"], conf["maxHeight"], model["latencyRows"], model["cycleSlack"],
+                                      cycles_per_pixel=conf.get("cyclesPerPixel", 1)))
         if "gen_memory_bits" not in row:  # the same IElas.memorySummary, when `make verilog` did not print it
             row["gen_memory_bits"] = model["memoryBits"]
             row["gen_memory_bram36"] = round(model["memoryBits"] / common.BRAM36_BITS, 2)

@@ -26,18 +26,22 @@ import report  # noqa: E402
 
 
 class GridTest(unittest.TestCase):
-    def test_full_grid_is_the_issues_22_points(self):
+    def test_full_grid_is_the_22_points_and_the_rate_axis(self):
         pts = grid.full()
-        self.assertEqual(len(pts), 22)
-        self.assertEqual(len({p.name for p in pts}), 22)
-        main = [p for p in pts if p.window == 5]
+        self.assertEqual(len(pts), 28)
+        self.assertEqual(len({p.name for p in pts}), 28)
+        main = [p for p in pts if p.window == 5 and p.cycles_per_pixel == 1]
         self.assertEqual(len(main), 18)
         self.assertEqual({(p.resolution, p.disp_max, p.stored) for p in main},
                          {(r, d, s) for r in ("kitti", "tsukuba") for d in (63, 127, 255) for s in (10, 20, 40)})
         others = {(p.resolution, p.disp_max, p.stored, p.window) for p in pts if p.window != 5}
         self.assertEqual(others, {("kitti", 255, 20, 3), ("kitti", 255, 20, 7), ("tsukuba", 127, 20, 3),
                                   ("tsukuba", 127, 20, 7)})
+        rates = {(p.name, p.cycles_per_pixel) for p in pts if p.cycles_per_pixel > 1}
+        self.assertEqual(rates, {(f"{n}-c{c}", c) for n in ("kitti-d255-s20-w5", "tsukuba-d127-s20-w5")
+                                 for c in (2, 4, 8)})
         self.assertIn("kitti-d255-s20-w5", {p.name for p in pts})
+        self.assertIn("cyclesPerPixel=8", grid.by_name("kitti-d255-s20-w5-c8").spec())
 
     def test_quick_grid_is_small_and_separate(self):
         q = grid.quick()
@@ -63,6 +67,8 @@ class ModelTest(unittest.TestCase):
         self.assertEqual(m["cycles_per_pixel"], round(470725 / 466992, 4))
         self.assertEqual(m["fps_200MHz"], round(200e6 / 470725, 1))  # 424.9
         self.assertEqual(m["latency_rows"], 3)
+        # one pixel every 8 clocks: 8 x 470 725 = 3 765 800 cycles
+        self.assertEqual(common.cycle_model(1242, 376, 3, 7, cycles_per_pixel=8)["cycles_per_frame"], 3765800)
 
     def test_memory_summary_and_elaboration_errors_are_parsed(self):
         log = ("memory summary for k (maxWidth 1242, maxHeight 376):\n  Descriptor   lines  1242 rows x 96 bits\n"

@@ -2,7 +2,7 @@ package ielas
 
 import chisel3.util.log2Ceil
 
-/** The ELAS algorithm parameter set (libelas's two presets, ELAS_SPEC §0).
+/** The ELAS algorithm parameter set (libelas's two presets; docs/ALGORITHM.md, "Configurations and frames").
   * It fixes the support, prior and post-processing parameters; the hardware shape comes from [[ElasParams]].
   */
 sealed abstract class ParameterSet(val name: String) {
@@ -37,7 +37,7 @@ object ParameterSet {
 /** Lattice-fill rule for nodes of the support lattice that hold no support point. */
 sealed abstract class FillRule(val name: String)
 object FillRule {
-  /** Row-linear interpolation with an up-select for disparity jumps (IELAS_STUDY round 2); one lattice row look-ahead. */
+  /** Row-linear interpolation with an up-select for disparity jumps (docs/ALGORITHM.md, "The fill study"); one lattice row look-ahead. */
   case object R7 extends FillRule("r7")
   /** The iELAS paper: horizontal within +-sDelta px, then vertical, then the constant C. */
   case object Paper extends FillRule("paper")
@@ -63,17 +63,17 @@ case class ElasParams(
     candidateStep: Int = 5,
     gridSize: Int = 20,
     parameterSet: ParameterSet = ParameterSet.Robotics,
-    // support matching and filtering (ELAS_SPEC §4)
+    // support matching and filtering (docs/ALGORITHM.md, "support")
     supportTexture: Int = 10,
     supportMinRange: Int = 10,
     inconWindowSize: Int = 5,
     inconThreshold: Int = 5,
     inconMinSupport: Int = 5,
     lrThreshold: Int = 2,
-    // prior (ELAS_SPEC §0, §8)
+    // prior (docs/ALGORITHM.md, "dense")
     beta: Double = 0.02,
     sigma: Double = 1.0,
-    // post-processing (ELAS_SPEC §10) and its bounded streaming forms
+    // post-processing (docs/ALGORITHM.md, "post") and its bounded streaming forms
     speckleSimThreshold: Int = 1,
     speckleSize: Int = 200,
     speckleWindowRows: Int = 16,
@@ -152,7 +152,7 @@ case class ElasParams(
   val filterAdaptiveMean: Boolean = parameterSet.filterAdaptiveMean
   val postprocessOnlyLeft: Boolean = parameterSet.postprocessOnlyLeft
 
-  /** Integer prior P[delta], delta = |d - d_plane| = 0..dispMax (ELAS_SPEC §0): trunc((ln g - ln(g + N)) / beta). */
+  /** Integer prior P[delta], delta = |d - d_plane| = 0..dispMax (docs/ALGORITHM.md, "dense"): trunc((ln g - ln(g + N)) / beta). */
   val priorTable: Seq[Int] = (0 to dispMax).map(ElasParams.priorEntry(_, gamma, sigma, beta))
 
   /** Widths. */
@@ -185,8 +185,10 @@ case class ElasParams(
 }
 
 object ElasParams {
-  /** Fixed cycles a support point spends outside its lane sweeps (node start, two decisions). */
-  val supportOverheadCycles: Int = 3
+  /** Fixed cycles a support point spends outside its lane sweeps at worst: node start, two decisions, and one
+    * more reference read per sweep when the reference columns u - r and u + r lie in two blocks.
+    */
+  val supportOverheadCycles: Int = 5
 
   /** Cycles of one support sweep over disparities 0..dhi at the worst alignment: the target columns t - r .. t + r
     * of all of them span dhi + 2r + 1 columns, i.e. at most ceil((dhi + 2r) / lanes) + 1 aligned blocks.
@@ -207,7 +209,7 @@ object ElasParams {
     ElasParams(name = name, maxWidth = w, maxHeight = h, dispMax = dmax, parameterSet = set, windowSize = windowSize,
       fillC = math.min(60, dmax), cyclesPerPixel = cyclesPerPixel)
 
-  /** The named configurations of INTERFACES.md §1, then small ones for fast tests. */
+  /** The named configurations of docs/interfaces.md §1, then small ones for fast tests. */
   val named: Seq[ElasParams] = Seq(
     preset("kitti", 1242, 376, 255, ParameterSet.Robotics),
     preset("kitti-middlebury", 1242, 376, 255, ParameterSet.Middlebury),

@@ -3,7 +3,7 @@ package ielas
 import chisel3._
 import chisel3.util._
 
-/** The accelerator (INTERFACES.md §4): left/right pixels in, disparity*16 out, both AXI4-Stream video style.
+/** The accelerator (docs/interfaces.md §4): left/right pixels in, disparity*16 out, both AXI4-Stream video style.
   *
   * {{{
   *  in -> FrameGuard -> fork -+-> Descriptor -> SupportMatcher -> SupportFilter -> fork -+-> LatticeFill -> lattice queue -> Planes --+
@@ -40,7 +40,7 @@ class IElas(p: ElasParams) extends Module {
   io.out <> gate.io.out
 }
 
-/** The stages in pipeline order (INTERFACES.md §3 names); a [[Pipeline]] is built up to one of them. */
+/** The stages in pipeline order (docs/interfaces.md §3 names); a [[Pipeline]] is built up to one of them. */
 sealed abstract class Stage(val name: String, val index: Int)
 object Stage {
   case object Descriptor extends Stage("descriptor", 0)
@@ -185,7 +185,7 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
 }
 
 object IElas {
-  /** The top's no-stall bound N + latencyRows * W + cycleSlack (INTERFACES.md §4); the sweep's cycle model reads
+  /** The top's no-stall bound N + latencyRows * W + cycleSlack (docs/interfaces.md §4); the sweep's cycle model reads
     * these (`Main config`). Latency: the band, the late descriptor, the L/R check's row and post's look-ahead.
     */
   def latencyRows(p: ElasParams): Int = bandRows(p) + Descriptor.latencyRows(p) + 1 + PostProcess.latencyRows(p) + 2
@@ -261,7 +261,7 @@ class FrameSizeTable(p: ElasParams, consumers: Int, depth: Int) extends Module {
   io.full := written - read(consumers - 1) === depth.U
 }
 
-/** Ends an aborted frame's output after the output line in progress (INTERFACES.md §4): the rest of that frame's
+/** Ends an aborted frame's output after the output line in progress (docs/interfaces.md §4): the rest of that frame's
   * output is dropped and its end of frame never appears. `aborted` carries one verdict per frame, known once the
   * guard has seen the whole frame; a frame whose verdict is not yet known keeps flowing.
   */

@@ -14,20 +14,22 @@ import chisel3.util._
   * Buffers. A lattice row at pixel row v reads only descriptor rows v - r and v + r (the four window corners of
   * both the reference and the target) and the texture test of row v. The capture side therefore keeps, for each of
   * `slots` lattice rows, the two descriptor rows of both views (128 bits per pixel) and one texture bit per pixel
-  * and view. The descriptor rows are split into `banks` column-interleaved memories (bank = x mod banks) so one
-  * cycle reads `banks` consecutive columns: the L lanes of a sweep need target columns t - r .. t + r of L
-  * consecutive disparities, i.e. L + 2r consecutive columns. One barrel rotation per view and row puts the banks
-  * in column order (log2(banks) mux levels, instead of a banks-way mux per column).
-  *   descriptor buffer bits = 2 rows x 2 views x slots x banks x ceil(maxWidth / banks) x 128
+  * and view. Each row kind is split into L = supportLanesUsed column banks (bank = x mod L, word = x / L, both
+  * views in one memory, the right view's words after the left's), so one read of word j in every bank is the
+  * aligned block of columns jL .. jL + L - 1 and lane k always reads bank k: no rotator, no column mux.
+  *   descriptor buffer bits = 2 rows x 2 views x slots x L x ceil(maxWidth / L) x 128
   *   texture buffer bits    = slots x maxWidth x 2
-  * (kitti: slots 2, banks 32 -> 1,277,952 + 4,968 bits). slots = the smallest K with (K-1)*step >= 2r + 1: the top
-  * row of lattice row j + K is written only after lattice row j is finished, which at 1 pixel per clock leaves
-  * step pixel rows for the search of lattice row j. Nothing grows with the image height.
+  * (kitti: slots 2, L 32 -> 1,277,952 + 4,968 bits). slots = the smallest K with (K-1)*step >= 2r + 1: the top
+  * row of lattice row j + K is written only after lattice row j is finished, which at one pixel every
+  * cyclesPerPixel clocks leaves step pixel rows for the search of lattice row j. Nothing grows with the image height.
   *
-  * Search (per active node, one sweep per reference view): L lanes evaluate disparities base .. base + L - 1 per
-  * cycle; a sweep takes ceil((dhi + 1) / L) cycles, and a node costs nL + nR + 3 cycles (node start, one drain
-  * cycle after each sweep whose decision is combinational on the merged best/second best), at most
-  * 2 * ceil((dispMax + 1) / L) + [[ElasParams.supportOverheadCycles]] = the budget of ElasParams.supportLanesUsed.
+  * Search (per active node, one sweep per reference view over d = 0..dhi): the target columns t - r of the sweep
+  * are c1 = minC1 .. maxC1 (left reference u: c1 = u - r - d; right reference u': c1 = u' - r + d), each with its
+  * partner c1 + 2r. The sweep reads the blocks from the one holding maxC1 + 2r down to the one holding minC1; lane
+  * k evaluates c1 = jL + k against the partner in the same block or in the block read the cycle before (its first
+  * 2r columns are kept). The reference columns u ± r are read from the reference view before the sweep (one or two
+  * cycles) and kept in registers. A node costs at most 5 + two sweeps of ceil((dhi + 2r) / L) + 1 blocks
+  * (ElasParams.supportNodeCycles), within supportCyclesPerPoint = cyclesPerPixel x step^2 at every configuration.
   * Best/second best are merged over lanes in ascending d with strict "<" on the left operand, which equals the
   * sequential definition (E1 min, d1 its smallest d, E2 the second smallest of the multiset).
   *
@@ -124,22 +126,35 @@ class SupportMatcher(p: ElasParams) extends Module {
   def slotBase(slot: UInt, perSlot: Int): UInt =
     VecInit((0 until slots).map(s => (s * perSlot).U(log2Ceil(slots * perSlot + 1).W)))(slot)
 
-  /** Memory addresses: slot * words + word, cut to the address width (word < words always holds). */
-  def rowAddress(slot: UInt, word: UInt): UInt =
-    (slotBase(slot, wordsPerRow) +& word)(log2Ceil(slots * wordsPerRow) - 1, 0)
+  /** Row memory address: view * slots * words + slot * words + word (word < words always holds). */
+  private val viewWords = slots * wordsPerRow
+  def rowAddress(view: UInt, slot: UInt, word: UInt): UInt =
+    (Mux(view.asBool, viewWords.U, 0.U) +& slotBase(slot, wordsPerRow) +& word)(log2Ceil(2 * viewWords) - 1, 0)
   def texAddress(slot: UInt, col: UInt): UInt =
     (slotBase(slot, p.maxWidth) +& col)(log2Ceil(slots * p.maxWidth) - 1, 0)
 
-  /** Descriptor row memories: (row kind 0 = v - r, 1 = v + r)(view 0 = left, 1 = right)(bank). */
-  val rowMem = Seq.fill(2, 2, banks)(SyncReadMem(slots * wordsPerRow, UInt(descBits.W)))
+  /** Descriptor row memories: (row kind 0 = v - r, 1 = v + r)(bank), the right view's words after the left's: a
+    * sweep reads one view at a time, so sharing the read port halves the block RAMs (they are read-width bound).
+    */
+  val rowMem = Seq.fill(2, banks)(SyncReadMem(2 * viewWords, UInt(descBits.W)))
   val texMem = SyncReadMem(slots * p.maxWidth, UInt(2.W)) // bit 0 left, bit 1 right: texture >= supportTexture
 
   val capBank = capX(bankBits - 1, 0)
   val capWord = capX >> bankBits
-  for ((tracker, kind) <- Seq(topRow, bottomRow).zipWithIndex; view <- 0 until 2; b <- 0 until banks) {
-    when(capture && tracker.hit && capBank === b.U) {
-      val data = if (view == 0) io.in.bits.data.left else io.in.bits.data.right
-      rowMem(kind)(view)(b).write(rowAddress(tracker.slot, capWord), data)
+  // The left word is written with the pixel, the right word one cycle later: that bank's next write is `banks`
+  // columns away, and a kind's captured rows are step >= 2 pixel rows apart, so the two never meet.
+  for ((tracker, kind) <- Seq(topRow, bottomRow).zipWithIndex) {
+    val hit = capture && tracker.hit
+    val rightPending = RegNext(hit, false.B)
+    val rightBank = RegNext(capBank)
+    val rightAddr = RegNext(rowAddress(1.U, tracker.slot, capWord))
+    val rightData = RegNext(io.in.bits.data.right)
+    for (b <- 0 until banks) {
+      when(hit && capBank === b.U) {
+        rowMem(kind)(b).write(rowAddress(0.U, tracker.slot, capWord), io.in.bits.data.left)
+      }.elsewhen(rightPending && rightBank === b.U) {
+        rowMem(kind)(b).write(rightAddr, rightData)
+      }
     }
   }
   when(capture && centreRow.hit) {
@@ -149,7 +164,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   }
 
   // ---- walker: every lattice node in raster order ----
-  val sIdle :: sNode :: sSweep :: sDecide :: Nil = Enum(4)
+  val sIdle :: sNode :: sRefHi :: sSweep :: sDecide :: Nil = Enum(5)
   val state = RegInit(sIdle)
   val phaseLeft = RegInit(true.B) // sweeping with the left view as reference
   val uRef = RegInit(0.U(p.colBits.W)) // reference column of the current sweep
@@ -169,26 +184,37 @@ class SupportMatcher(p: ElasParams) extends Module {
   val maxC1 = RegInit(0.U(colW.W))
   val dRight = Wire(UInt(p.dispBits.W)) // the left sweep's decision, which sets the right sweep's reference column
   val uRight = uRef - dRight
-  // Each view's banks read the target block while the view is the target, else the reference view's blocks:
-  // the block of uRef - r in the cycle before a sweep (sNode, or sDecide before the right sweep), then uRef + r.
-  val leftWord = Mux(state === sNode, blockOf(walkU - r.U),
-    Mux(phaseLeft, blockOf(uRef + r.U), j))
-  val rightWord = Mux(state === sDecide && phaseLeft, blockOf(uRight - r.U),
-    Mux(phaseLeft, j, blockOf(uRef + r.U)))
-  def readBlock(view: Int, word: UInt): Seq[Seq[UInt]] =
-    (0 until 2).map(kind => (0 until banks).map(b => rowMem(kind)(view)(b).read(rowAddress(walkSlot, word))))
-  val leftData = readBlock(0, leftWord)
-  val rightData = readBlock(1, rightWord)
+  // One read per bank and cycle: the reference view's block of uRef - r in the cycle before a sweep (sNode, or
+  // sDecide before the right sweep), its block of uRef + r (sRefHi, skipped when it is the same block), then the
+  // target view's blocks j.
+  val refLoWord = Mux(state === sNode, blockOf(walkU - r.U), blockOf(uRight - r.U))
+  val readView = Mux(state === sNode || state === sRefHi, !phaseLeft && state === sRefHi,
+    Mux(state === sSweep, phaseLeft, true.B)) // sDecide: the right view's reference (only used after the left sweep)
+  val readWord = Mux(state === sSweep, j, Mux(state === sRefHi, blockOf(uRef + r.U), refLoWord))
+  val data = (0 until 2).map(kind => (0 until banks).map(b => rowMem(kind)(b).read(rowAddress(readView, walkSlot, readWord))))
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
-  // ---- the sweep's reference descriptors: columns uRef - r (read before the sweep, kept) and uRef + r ----
-  val refView = (0 until 2).map(kind => (0 until banks).map(b => Mux(phaseLeft, leftData(kind)(b), rightData(kind)(b))))
-  val tgtView = (0 until 2).map(kind => (0 until banks).map(b => Mux(phaseLeft, rightData(kind)(b), leftData(kind)(b))))
-  val refLoFresh = RegNext(state === sNode || (state === sDecide && phaseLeft), false.B)
-  val refLo = Reg(Vec(2, UInt(descBits.W)))
+  // ---- the sweep's reference descriptors (columns uRef - r and uRef + r), kept in registers ----
   def column(data: Seq[UInt], col: UInt): UInt = Mux1H(data.indices.map(b => col(bankBits - 1, 0) === b.U), data)
-  when(refLoFresh) { for (kind <- 0 until 2) refLo(kind) := column(refView(kind), uRef - r.U) }
-  val refHi = (0 until 2).map(kind => column(refView(kind), uRef + r.U))
+  val loRead = RegInit(false.B) // the data of this cycle holds column uRef - r (and uRef + r when hiRead)
+  val hiRead = RegInit(false.B)
+  loRead := false.B
+  hiRead := state === sRefHi
+  val refLo = Reg(Vec(2, UInt(descBits.W)))
+  val refHi = Reg(Vec(2, UInt(descBits.W)))
+  when(loRead) { for (kind <- 0 until 2) refLo(kind) := column(data(kind), uRef - r.U) }
+  when(hiRead) { for (kind <- 0 until 2) refHi(kind) := column(data(kind), uRef + r.U) }
+  /** Starts a sweep with reference column u: its reference reads are under way (one more cycle when u ± r lie in
+    * two blocks).
+    */
+  def startSweep(u: UInt): Unit = {
+    val oneBlock = blockOf(u - r.U) === blockOf(u + r.U)
+    loRead := true.B
+    hiRead := oneBlock
+    sweepStart := true.B
+    state := Mux(oneBlock, sSweep, sRefHi)
+  }
+  val tgtView = data
 
   // ---- s1: costs of the block read last cycle, merged into the running best / second best ----
   val issue = state === sSweep
@@ -199,7 +225,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   val s1MaxC1 = RegNext(maxC1)
   val s1First = RegNext(sweepStart)
   // columns 0 .. 2r - 1 of the block read the cycle before (block j + 1): the partners of the top 2r lanes
-  val prevBlock = tgtView.map(cols => RegNext(VecInit(cols.take(2 * r))))
+  val prevBlock = tgtView.map(cols => RegNext(VecInit(cols.take(2 * r).toSeq)))
 
   class Best extends Bundle {
     val e1 = UInt(costBits.W)
@@ -283,14 +309,15 @@ class SupportMatcher(p: ElasParams) extends Module {
       when(!nodeActive || dhiL < p.supportMinRange.U) {
         when(rowReady) { emit(none) }
       }.elsewhen(rowReady) {
-        phaseLeft := true.B; uRef := walkU; sweepStart := true.B
+        phaseLeft := true.B; uRef := walkU
+        startSweep(walkU)
         minC1 := walkU - r.U - dhiL
         maxC1 := walkU - r.U
         j := blockOf(walkU + r.U)
         jLo := blockOf(walkU - r.U - dhiL)
-        state := sSweep
       }
     }
+    is(sRefHi) { state := sSweep }
     is(sSweep) {
       sweepStart := false.B
       j := j - 1.U
@@ -305,12 +332,12 @@ class SupportMatcher(p: ElasParams) extends Module {
         when(!accept || dhiR < p.supportMinRange.U) {
           emit(none)
         }.otherwise {
-          dLeft := d1; uRef := uRight; phaseLeft := false.B; sweepStart := true.B
+          dLeft := d1; uRef := uRight; phaseLeft := false.B
+          startSweep(uRight)
           minC1 := uRight - r.U
           maxC1 := uRight - r.U + dhiR
           j := blockOf(uRight + r.U + dhiR)
           jLo := blockOf(uRight - r.U)
-          state := sSweep
         }
       }.otherwise {
         val diff = Mux(dLeft > d1, dLeft - d1, d1 - dLeft)
@@ -335,10 +362,10 @@ object SupportMatcher {
   def costBits(p: ElasParams): Int = log2Ceil(4 * p.descriptorBytes * 255 + 2)
 
   /** Cycles of the search for one active node with left/right ranges dhiL/dhiR at the worst block alignment: node
-    * start, each sweep's blocks, and one decision cycle after each sweep (ElasParams.supportNodeCycles).
+    * start, per sweep a second reference read, its blocks and a decision cycle (ElasParams.supportNodeCycles).
     */
   def nodeCycles(p: ElasParams, dhiL: Int, dhiR: Int): Int =
-    3 + ElasParams.supportSweepCycles(dhiL, p.windowRadius, p.supportLanesUsed) +
+    ElasParams.supportOverheadCycles + ElasParams.supportSweepCycles(dhiL, p.windowRadius, p.supportLanesUsed) +
       ElasParams.supportSweepCycles(dhiR, p.windowRadius, p.supportLanesUsed)
 
   /** Rows of latency behind the descriptor stream: the search of the last lattice row may take step rows. */
@@ -379,8 +406,8 @@ object SupportMatcher {
   }
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
-    MemoryUse("Support", "rows", slots(p) * wordsPerRow(p), 2 * 2 * banks(p) * 8 * p.descriptorBytes,
-      s"${slots(p)} slots x rows v-r, v+r x 2 views, ${banks(p)} banks of SyncReadMem 1R1W"),
+    MemoryUse("Support", "rows", 2 * slots(p) * wordsPerRow(p), 2 * banks(p) * 8 * p.descriptorBytes,
+      s"2 views x ${slots(p)} slots x rows v-r, v+r, ${banks(p)} banks of SyncReadMem 1R1W (both views per bank)"),
     MemoryUse("Support", "texture", slots(p) * p.maxWidth, 2, s"${slots(p)} slots x 2 views, SyncReadMem 1R1W")
   )
 }

@@ -57,12 +57,12 @@ class ElasParamsSpec extends AnyFlatSpec with Matchers {
 
   "support lanes" should "be the lowest power of two that keeps 1 pixel per clock" in {
     // kitti: a sweep over d = 0..255 touches target columns spanning 255 + 2r + 1 = 260 columns, at worst
-    // ceil(259 / L) + 1 aligned blocks; a node is 3 + 2 sweeps within step * step = 25 cycles.
-    // L = 16: 3 + 2 * (17 + 1) = 39 > 25; L = 32: 3 + 2 * (9 + 1) = 23 <= 25.
+    // ceil(259 / L) + 1 aligned blocks; a node is 5 + 2 sweeps within step * step = 25 cycles.
+    // L = 16: 5 + 2 * (17 + 1) = 41 > 25; L = 32: 5 + 2 * (9 + 1) = 25 <= 25.
     ElasParams.byName("kitti").supportLanesUsed shouldBe 32
-    // tsukuba (dispMax 127): L = 8: 3 + 2 * (17 + 1) = 39; L = 16: 3 + 2 * (9 + 1) = 23.
+    // tsukuba (dispMax 127): L = 8: 5 + 2 * (17 + 1) = 41; L = 16: 5 + 2 * (9 + 1) = 25.
     ElasParams.byName("tsukuba").supportLanesUsed shouldBe 16
-    // small (dispMax 31): L = 8 (the lowest power of two above 2r = 4): 3 + 2 * (5 + 1) = 15.
+    // small (dispMax 31): L = 8 (the lowest power of two above 2r = 4): 5 + 2 * (5 + 1) = 17.
     ElasParams.byName("small").supportLanesUsed shouldBe 8
     an[IllegalArgumentException] should be thrownBy ElasParams.byName("kitti").copy(supportLanes = 26)
     an[IllegalArgumentException] should be thrownBy ElasParams.byName("kitti").copy(supportLanes = 4)
