@@ -1,4 +1,4 @@
-// ielas-golden: the command line of INTERFACES.md §2 (match, dump).
+// ielas-golden: the command line of docs/interfaces.md §2 (match, dump).
 #include <chrono>
 #include <ctime>
 #include <cstdio>

@@ -1,4 +1,4 @@
-// The command-line contract of INTERFACES.md §2-3: one-line errors with a non-zero exit, dump files, compare.
+// The command-line contract of docs/interfaces.md §2-3: one-line errors with a non-zero exit, dump files, compare.
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>

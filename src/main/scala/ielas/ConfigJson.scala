@@ -118,7 +118,7 @@ object ConfigJson {
     val m = FlatJson.parse(text, origin)
     val d = ElasParams()
     def int(k: String, default: Int): Int = m.get(k).map {
-      case n: Double if n == math.rint(n) => n.toInt
+      case n: Double if n == math.rint(n) && n.abs <= Int.MaxValue => n.toInt
       case other => throw new IllegalArgumentException(s"$origin: $k must be an integer, got $other")
     }.getOrElse(default)
     def dbl(k: String, default: Double): Double = m.get(k).map {

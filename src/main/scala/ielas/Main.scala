@@ -2,7 +2,9 @@ package ielas
 
 import java.nio.file.Paths
 
-/** Command-line front door used by the Makefile:
+/** Command-line front door used by the Makefile and by `sbt run`:
+  *   (no arguments)                emit the default configuration (kitti) as SystemVerilog into build/verilog/kitti
+  *   --width W --height H ...      emit a custom configuration from the card parameters (`--help` lists them)
   *   configs [DIR]                 write every named configuration to DIR (default golden/configs)
   *   verilog CONFIG [DIR]          emit the accelerator top as SystemVerilog into DIR (default build/verilog/CONFIG)
   *   config DIR SPEC...            write one configuration per SPEC = NAME:BASE[:KEY=VALUE,...] to DIR/NAME.json
@@ -11,9 +13,24 @@ import java.nio.file.Paths
   */
 object Main {
   def main(args: Array[String]): Unit = {
-    val result =
+    val result = run(args)
+    if (result != 0) sys.exit(result)
+  }
+
+  /** The command line's work; returns the exit code (errors are one line on stderr). */
+  def run(args: Array[String]): Int =
       try {
         args.toList match {
+          case Nil =>
+            emit(ElasParams.byName("kitti"), None)
+            0
+          case ("--help" | "-h") :: _ =>
+            println(usage)
+            0
+          case flags @ (first :: _) if first.startsWith("--") =>
+            val (p, dir) = fromFlags(flags)
+            emit(p, dir)
+            0
           case "configs" :: rest =>
             val dir = Paths.get(rest.headOption.getOrElse("golden/configs"))
             ElasParams.named.foreach(p => println(s"wrote ${ConfigJson.write(p, dir)}"))
@@ -40,15 +57,62 @@ object Main {
             }
             if (failed.isEmpty) 0 else 1
           case _ =>
-            System.err.println("usage: Main configs [DIR] | verilog CONFIG [DIR] | config DIR NAME:BASE[:KEY=VALUE,...]...")
+            System.err.println("usage: Main [--help | flags] | configs [DIR] | verilog CONFIG [DIR] | config DIR NAME:BASE[:KEY=VALUE,...]...")
             2
         }
-      } catch {
+      } catch { // every failure is one line and a non-zero exit, no stack trace
         case e: IllegalArgumentException =>
           System.err.println(s"error: ${e.getMessage.stripPrefix("requirement failed: ")}")
           1
+        case e: java.nio.file.NoSuchFileException =>
+          System.err.println(s"error: no such file: ${e.getFile}")
+          1
+        case e: java.nio.file.AccessDeniedException =>
+          System.err.println(s"error: cannot write or read ${e.getFile} (permission denied)")
+          1
+        case e: java.io.IOException =>
+          System.err.println(s"error: ${e.getClass.getSimpleName}: ${e.getMessage}")
+          1
       }
-    if (result != 0) sys.exit(result)
+
+  /** The card's parameters as flags: (flag, ElasParams field, legal range as the generator checks it). */
+  private val cardFlags = Seq(
+    ("--width", "maxWidth", "32..8192"),
+    ("--height", "maxHeight", "16..8192"),
+    ("--disp-max", "dispMax", "15..1023, below the width"),
+    ("--window", "windowSize", "3, 5, 7"),
+    ("--stored", "storedDisparities", "1..dispMax+1"),
+    ("--cycles-per-pixel", "cyclesPerPixel", "1, 2, 4, 8"))
+
+  val usage: String =
+    (Seq("usage: sbt \"run [--name NAME] [--base CONFIG] [--out DIR] FLAG VALUE ...\"   (no arguments: the kitti configuration)",
+      "  emits SystemVerilog of the IElas top and NAME.json (the configuration the golden model reads) into DIR",
+      "  (default build/verilog/NAME); unset flags keep the base configuration's values (default base: kitti)") ++
+      cardFlags.map { case (f, field, legal) => f"  $f%-20s $field%-18s legal: $legal" }).mkString("\n")
+
+  /** Flags to a configuration: every value an integer that fits, every range checked by ElasParams. */
+  private def fromFlags(flags: List[String]): (ElasParams, Option[String]) = {
+    require(flags.length % 2 == 0, s"flag ${flags.last} needs a value (see --help)")
+    val pairs = flags.grouped(2).map { case Seq(k, v) => k -> v }.toSeq
+    val known = cardFlags.map(_._1).toSet ++ Set("--name", "--base", "--out")
+    pairs.foreach { case (k, _) => require(known(k), s"unknown flag $k (legal: ${known.toSeq.sorted.mkString(", ")})") }
+    val m = pairs.toMap
+    val name = m.getOrElse("--name", "custom")
+    val overrides = cardFlags.flatMap { case (f, field, legal) =>
+      m.get(f).map { v =>
+        require(v.toIntOption.isDefined, s"$f $v is not an integer (legal: $legal)")
+        s"$field=$v"
+      }
+    }
+    val p = ConfigJson.fromSpec(s"$name:${m.getOrElse("--base", "kitti")}:${overrides.mkString(",")}")
+    (p, m.get("--out"))
+  }
+
+  /** Verilog of the top plus the configuration JSON beside it. */
+  private def emit(p: ElasParams, dir: Option[String]): Unit = {
+    val out = Paths.get(dir.getOrElse(s"build/verilog/${p.name}"))
+    VerilogEmitter.emitTop(p, out)
+    println(s"wrote ${ConfigJson.write(p, out)}")
   }
 
   /** DIR/NAME.json and DIR/NAME.model.json (the top's cycle-model figures and memory bits) for one spec. */
