@@ -3,8 +3,8 @@
 of the point's configuration (`make simulate`), compared value for value with the golden model's dump of the
 same configuration (`ielas-compare`), and its cycle count set beside the cycle model.
 
-usage: hwcheck.py [--stage STAGE] [POINT ...]   (default: kitti-d255-s20-w5 kitti-d63-s20-w5
-                                                  tsukuba-d127-s20-w5 tsukuba-d63-s20-w5)
+usage: hwcheck.py [--stage STAGE] [POINT ...]   (default: kitti-d255-s20-w5 kitti-d255-s20-w5-c8
+                                                  tsukuba-d127-s20-w5 kitti-d63-s20-w5)
 STAGE (default: SWEEP_HW_STAGE or `top`, the whole accelerator: the disparity itself, hence the accuracy columns,
 is checked bit for bit; any earlier stage name checks the hardware up to that stage).
 Writes docs/sweep/hwcheck.json (report.py shows it). Exit 0 when every point is bit-exact and within the model.
@@ -25,7 +25,7 @@ import common  # noqa: E402
 import grid  # noqa: E402
 
 ROOT = common.ROOT
-DEFAULT = ["kitti-d255-s20-w5", "kitti-d63-s20-w5", "tsukuba-d127-s20-w5", "tsukuba-d63-s20-w5"]
+DEFAULT = ["kitti-d255-s20-w5", "kitti-d255-s20-w5-c8", "tsukuba-d127-s20-w5", "kitti-d63-s20-w5"]
 
 
 def pair(resolution, data, work, evaluator):
@@ -76,9 +76,12 @@ def one(point, stage, golden, evaluator, data):
             entry["cycles_measured"] = int(fh.read().split()[0])
         with open(os.path.join(ROOT, "build", "sweep", "configs", f"{point}.model.json")) as fh:
             model = json.load(fh)
+        with open(cfg) as fh:
+            rate = json.load(fh).get("cyclesPerPixel", 1)
         w, h = size_of(evaluator, left)
         entry["size"] = f"{w}x{h}"
-        entry["cycles_model"] = common.cycle_model(w, h, model["latencyRows"], model["cycleSlack"])["cycles_per_frame"]
+        entry["cycles_model"] = common.cycle_model(w, h, model["latencyRows"], model["cycleSlack"],
+                                                   cycles_per_pixel=rate)["cycles_per_frame"]
         entry["within_model"] = entry["cycles_measured"] <= entry["cycles_model"]
     except (subprocess.CalledProcessError, OSError, ValueError) as e:
         entry["error"] = str(e)
