@@ -213,6 +213,7 @@ object ElasParams {
   val named: Seq[ElasParams] = Seq(
     preset("kitti", 1242, 376, 255, ParameterSet.Robotics),
     preset("kitti-middlebury", 1242, 376, 255, ParameterSet.Middlebury),
+    preset("kitti-c8", 1242, 376, 255, ParameterSet.Robotics, cyclesPerPixel = 8), // about the iELAS paper's rate
     preset("tsukuba", 640, 480, 127, ParameterSet.Robotics),
     preset("tsukuba-middlebury", 640, 480, 127, ParameterSet.Middlebury),
     // Small test configurations: narrow frames and short disparity ranges so Verilator builds stay fast.
