@@ -46,7 +46,7 @@ import chisel3.util._
   * carried owner of the nearest covered pixel to its left (a row whose pixel 0 is uncovered has no covered pixel at
   * all and takes the cell row's last triangle). A primer computes the first K-1 cells of the next row into shadow
   * registers while the current row runs (one cell per clock), so row starts cost no cycles.
-  *   raster registers = 2 (window + shadow) x K x (1 + 8 spanBits)   (K = 9 at small, 53 at kitti)
+  *   raster registers = 2 (window + shadow) x K x (1 + 4 spanBits)   (right view only)   (K = 9 at small, 53 at kitti)
   *
   * '''Row banks''' (memories, combinational read ports; written by the loaders, tagged with frame parity and row):
   *   corner banks = 2 x (latticeColsMax - 1) x 4 dispBits          (one cell row in use, the next loading)
@@ -181,13 +181,14 @@ class DenseMatcher(p: ElasParams) extends Module {
 
   // ---------------------------------------------------------------- rasteriser cell spans
   /** e*h, g*h, f*h of one cell for view 0 (left, s = 0) and 1 (right, s = corner disparities). */
-  /** Per view and triangle t the covered interval lo..hi of the scaled column u*h: t = 0 between e and g, t = 1
-    * between g and f (ordered when the cell enters the window, so a pixel's cover test is two compares).
+  /** The right view's covered interval lo..hi of the scaled column u*h per triangle t: t = 0 between e and g,
+    * t = 1 between g and f (ordered when the cell enters the window, so a pixel's cover test is two compares).
+    * The left view needs no window: its mesh is not shifted, so a pixel's own cell always owns it.
     */
   class Span extends Bundle {
     val valid = Bool()
-    val lo = Vec(2, Vec(2, SInt(spanW.W)))
-    val hi = Vec(2, Vec(2, SInt(spanW.W)))
+    val lo = Vec(2, SInt(spanW.W))
+    val hi = Vec(2, SInt(spanW.W))
   }
   def cellSpan(cc: UInt, exists: Bool, corners: Vec[UInt], up: UInt, down: UInt): Span = {
     val s = Wire(new Span)
@@ -195,19 +196,16 @@ class DenseMatcher(p: ElasParams) extends Module {
     val x1raw = x0 +& step.U
     val x1 = Mux(x1raw > width - 1.U, width - 1.U, x1raw)
     s.valid := exists
-    for (view <- 0 until 2) {
-      def sh(k: Int): SInt = if (view == 0) 0.S else corners(k).zext
-      val tl = x0.zext - sh(0)
-      val tr = x1.zext - sh(1)
-      val bl = x0.zext - sh(2)
-      val br = x1.zext - sh(3)
-      val e = tl * up.zext + bl * down.zext
-      val g = tr * up.zext + bl * down.zext
-      val f = tr * up.zext + br * down.zext
-      for ((t, (x, y)) <- Seq(0 -> (e, g), 1 -> (g, f))) {
-        s.lo(view)(t) := Mux(x < y, x, y)
-        s.hi(view)(t) := Mux(x < y, y, x)
-      }
+    val tl = x0.zext - corners(0).zext
+    val tr = x1.zext - corners(1).zext
+    val bl = x0.zext - corners(2).zext
+    val br = x1.zext - corners(3).zext
+    val e = tl * up.zext + bl * down.zext
+    val g = tr * up.zext + bl * down.zext
+    val f = tr * up.zext + br * down.zext
+    for ((t, (x, y)) <- Seq(0 -> (e, g), 1 -> (g, f))) {
+      s.lo(t) := Mux(x < y, x, y)
+      s.hi(t) := Mux(x < y, y, x)
     }
     s
   }
@@ -367,7 +365,7 @@ class DenseMatcher(p: ElasParams) extends Module {
 
   // ---------------------------------------------------------------- stage A
   val window = Reg(Vec(K, new Span))
-  val carry = Reg(Vec(2, UInt((cellW + 1).W))) // owner of the last covered pixel: cell * 2 + t
+  val carry = Reg(UInt((cellW + 1).W)) // right view: owner of the last covered pixel, cell * 2 + t
   val (aH, aUp, aDown) = rowGeometry(a.cr, a.vIn)
   val win = Mux(a.u === 0.U, shadow, window)
   val uh = (a.u * aH).zext
@@ -386,17 +384,31 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
 
   val fallback = Cat(lastCell, 1.U(1.W))
-  val ownerRead = (0 until 2).map { view =>
+  // Left view: cell cu spans x0..x1 (x1 = min(x0 + step, W - 1)), its triangles cover e = x0 h .. g and g .. f = x1 h
+  // with g = x1 (h - vIn) + x0 vIn, and no higher-indexed cell reaches u (its e is above u h; h >= 1 in every row), so
+  // the owner is (cu, t = 1) when u h >= g, else (cu, 0): the highest-indexed covering triangle of the general rule.
+  val leftOwner = {
+    val x0 = (a.cu * step.U).pad(colW + 2)(colW + 1, 0)
+    val x1raw = x0 +& step.U
+    val x1 = Mux(x1raw > width - 1.U, width - 1.U, x1raw)
+    val g = (x1 * aUp + x0 * aDown).zext
+    Cat(a.cu, uh >= g)(cellW, 0)
+  }
+  // Right view: the highest-indexed covering triangle in the window, else the carried owner.
+  val rightOwner = {
     val covers = (0 until K).flatMap { j =>
       val s = win(j)
-      (0 until 2).map(t => s.valid && s.lo(view)(t) <= uh && uh <= s.hi(view)(t))
+      (0 until 2).map(t => s.valid && s.lo(t) <= uh && uh <= s.hi(t))
     } // index j*2 + t: drawing order
     val any = covers.reduce(_ || _)
     val top = (2 * K - 1).U - PriorityEncoder(covers.reverse)
     val ownerCov = ((base << 1).asUInt + top)(cellW, 0)
-    val owner = Mux(any, ownerCov, Mux(a.u === 0.U, fallback, carry(view)))
-    when(aFire) { carry(view) := owner }
-    val planes = readBank(if (view == 0) planeBanksL else planeBanksR, planeSel, owner >> 1, cellsMax)
+    val owner = Mux(any, ownerCov, Mux(a.u === 0.U, fallback, carry))
+    when(aFire) { carry := owner }
+    owner
+  }
+  val ownerRead = Seq(leftOwner, rightOwner).zip(Seq(planeBanksL, planeBanksR)).map { case (owner, banks) =>
+    val planes = readBank(banks, planeSel, owner >> 1, cellsMax)
     Mux(owner(0), planes(1), planes(0))
   }
 
@@ -673,7 +685,7 @@ object DenseMatcher {
       "both views' descriptors of the last ringDepth stream positions, SyncReadMem 1R1W (the references)"),
     MemoryUse("Dense", "targetRings", ringDepth(p), 2 * p.denseCandidates * 8 * p.descriptorBytes,
       "descL by stream position and descR by stage-B pixel, one SyncReadMem 1R1W replica per candidate lane and view"),
-    MemoryUse("Dense", "raster", 2 * rasterCells(p), 1 + 8 * spanBits(p),
+    MemoryUse("Dense", "raster", 2 * rasterCells(p), 1 + 4 * spanBits(p),
       "registers: raster window and the next row's shadow")
   )
 }
