@@ -149,11 +149,11 @@ class SupportMatcher(p: ElasParams) extends Module {
     val rightBank = RegNext(capBank)
     val rightAddr = RegNext(rowAddress(1.U, tracker.slot, capWord))
     val rightData = RegNext(io.in.bits.data.right)
-    for (b <- 0 until banks) {
-      when(hit && capBank === b.U) {
-        rowMem(kind)(b).write(rowAddress(0.U, tracker.slot, capWord), io.in.bits.data.left)
-      }.elsewhen(rightPending && rightBank === b.U) {
-        rowMem(kind)(b).write(rightAddr, rightData)
+    val leftAddr = rowAddress(0.U, tracker.slot, capWord)
+    for (b <- 0 until banks) { // one write port per memory
+      val writeLeft = hit && capBank === b.U
+      when(writeLeft || rightPending && rightBank === b.U) {
+        rowMem(kind)(b).write(Mux(writeLeft, leftAddr, rightAddr), Mux(writeLeft, io.in.bits.data.left, rightData))
       }
     }
   }
