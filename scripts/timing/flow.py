@@ -280,6 +280,18 @@ def cached(design, module, kind, salt, args, runner):
     return result
 
 
+def guarded(design, module, kind, salt, args, runner):
+    """cached(), but a failure of this flow's own code on one module (a report it cannot parse) becomes that
+    module's error instead of ending the run."""
+    try:
+        return cached(design, module, kind, salt, args, runner)
+    except (OSError, ValueError, KeyError, IndexError, TypeError, wrapper.PortError) as e:
+        import traceback
+        traceback.print_exc()
+        return {"status": "error", "error": f"flow: {type(e).__name__}: {e}", "cached": False,
+                "seconds": {} if kind == "ecp5" else 0}
+
+
 def modules_of(design, top, only):
     """The stage modules in the order the top instantiates them (memory wrappers aside), then the top."""
     order = []
@@ -422,7 +434,14 @@ def markdown(report):
         if s.get("start"):
             st = s["start"]
             start = ("input " if st["kind"] == "input" else f"{st.get('type')} ") + sta_name(st)
-            spath = f"{start} -> {s['end'].get('type')}.{s['end'].get('pin')} `{sta_name(s['end'])}` ({s['cells_on_path']})"
+            en = s["end"]
+            if en.get("type") == "output":
+                end = f"output `{sta_name(en)}`"
+            elif en.get("type") == "unknown":
+                end = f"`{sta_name(en)}` (no endpoint `sta` recognises)"
+            else:
+                end = f"{en.get('type')}.{en.get('pin')} `{sta_name(en)}`"
+            spath = f"{start} -> {end} ({s['cells_on_path']})"
         else:
             spath = "–"
         cp = e.get("critical_path") or {}
@@ -542,13 +561,13 @@ def main():
         xres = {}
         for module, n in run_order:
             print(f"timing: {module}: 7-series synthesis + sta ...", flush=True)
-            x = xres[module] = cached(design, module, "xc7", salt_x, args, xc7_run)
+            x = xres[module] = guarded(design, module, "xc7", salt_x, args, xc7_run)
             print(f"timing: {module}: LUT levels {x.get('lut_levels')}, STA {(x.get('sta') or {}).get('delay_ns')} ns "
                   f"({'cached' if x['cached'] else str(x.get('seconds')) + ' s'})", flush=True)
         for module, n in run_order:
             print(f"timing: {module}: ECP5 synth + place and route ...", flush=True)
             x = xres[module]
-            e = cached(design, module, "ecp5", salt_e, args, ecp5_run)
+            e = guarded(design, module, "ecp5", salt_e, args, ecp5_run)
             run_s = (0 if x["cached"] else x.get("seconds", 0)) + (0 if e["cached"] else sum(e["seconds"].values()))
             recorded = x.get("seconds", 0) + sum(e.get("seconds", {}).values())
             row = {"module": module, "instances": n, "is_top": module == args.top, "xc7": x, "ecp5": e,

@@ -106,26 +106,38 @@ def does_not_fit(parsed):
 
 
 def parse_sta(text):
-    """Yosys `sta` output: the latest arrival time (ps) and its path [(time_ps, cell, type, pins, net)], start first.
+    """Yosys `sta` output: the latest arrival time (ps) and its path [{ps, cell, type, pins, net}], start first.
     Arrival = the start register's clock-to-out + every cell's pin-to-pin delay + the end pin's setup time, from
-    the `specify` blocks of the cell library; a path from a module input starts at 0."""
-    m = re.search(r"Latest arrival time in '[^']*' is (\d+):\n((?:[ \t]+.*\n?)*)", text)
+    the `specify` blocks of the cell library; a path from a module input starts at 0. The path ends at a cell pin,
+    at a module output (`<primary output>`) or, when `sta` cannot tell, at `<unknown>`."""
+    m = re.search(r"Latest arrival time in '[^']*' is (\d+):\n", text)
     if not m:
         return None
     steps = []
-    for line in m.group(2).splitlines():
+    for line in text[m.end():].splitlines():
+        if not line.strip():
+            break
+        if line.startswith("Warning:"):
+            continue
         s = re.match(r"^\s+(\d+)\s+(\S+)\s+\((\S+?)\.(\S+)\)\s*$", line)
         if s:
             steps.append({"ps": int(s.group(1)), "cell": s.group(2), "type": s.group(3), "pins": s.group(4)})
             continue
-        s = re.match(r"^\s+(\d+)\s+(\S+)\s+\(<primary input>\)\s*$", line)
+        s = re.match(r"^\s+(\d+)\s+(\S+(?: \[\d+\])?)\s+\(<primary input>\)\s*$", line)
         if s:
             steps.append({"ps": int(s.group(1)), "cell": None, "type": "input", "pins": None,
                           "net": s.group(2).lstrip("\\")})
             continue
-        if line.strip() and steps and "net" not in steps[-1]:
+        s = re.match(r"^\s+(\d+)\s+\(<(primary output|unknown)>\)\s*$", line)
+        if s:
+            steps.append({"ps": int(s.group(1)), "cell": None,
+                          "type": "output" if s.group(2) == "primary output" else "unknown", "pins": None})
+            continue
+        if steps and "net" not in steps[-1]:
             steps[-1]["net"] = line.strip().lstrip("\\")
     steps.reverse()
+    if not steps:
+        return None
     return {"arrival_ps": int(m.group(1)), "steps": steps,
             "warnings": sorted(set(re.findall(r"^Warning: (.*)$", text, re.M)))}
 
