@@ -114,6 +114,27 @@ Latest arrival time in 'Tiny' is 745:
        0   \\io_a [0] (<primary input>)
 """
 
+# A path that ends at a carry output `sta` does not take for an endpoint: the warning sits inside the path block.
+STA_UNKNOWN = """Latest arrival time in 'Tiny' is 1500:
+    1500 (<unknown>)
+Warning: Critical-path does not terminate in a recognised endpoint.
+           $gt$x.CO [8]
+    1500 $gt$x.carry4 (CARRY4.CI->CO)
+           $gt$x.CO [7]
+     900 $abc$1 (LUT6.I2->O)
+           \\b [1]
+     303 $auto$ff.cc:266:slice$9 (FDRE.C->Q)
+       0   \\clock (<primary input>)
+
+"""
+STA_OUT = """Latest arrival time in 'Tiny' is 880:
+     880 (<primary output>)
+           \\io_odd
+     880 $abc$2 (LUT2.I0->O)
+           \\io_a [0]
+       0   \\io_a [0] (<primary input>)
+"""
+
 STAT_ECP5 = """=== timing_wrap_Tiny ===
 
         +----------Local Count, excluding submodules.
@@ -180,6 +201,16 @@ class ReportTest(unittest.TestCase):
         self.assertEqual((end["type"], end["pin"]), ("FDRE", "D"))
         self.assertEqual(s["warnings"], ["Module 'RAM128X1S' has no timing arcs!"])
         self.assertIsNone(pnr_report.parse_sta("no sta here"))
+
+    def test_sta_other_ends(self):
+        s = pnr_report.parse_sta(STA_UNKNOWN)
+        self.assertEqual(s["arrival_ps"], 1500)
+        start, end = pnr_report.sta_ends(s)
+        self.assertEqual((start["kind"], start["net"]), ("register", "b [1]"))
+        self.assertEqual((end["type"], end["net"]), ("unknown", "$gt$x.CO [8]"))
+        start, end = pnr_report.sta_ends(pnr_report.parse_sta(STA_OUT))
+        self.assertEqual(start, {"kind": "input", "net": "io_a [0]"})
+        self.assertEqual((end["type"], end["net"]), ("output", "io_odd"))
 
     def test_stat_counts(self):
         self.assertEqual(pnr_report.parse_cell_counts(STAT_ECP5), {"CCU2C": 3, "LUT4": 12, "TRELLIS_FF": 15})
