@@ -31,15 +31,16 @@ import chisel3.util._
   *   delay line   (L + 4) rows x W x (dispBits + 1 + idW)
   *   F maps       (L + 2) rows x W x (1 + max(idW, sW)), one memory per row, 2 read ports
   *   P, R         2 rows x W x idW each;  K, S  3 rows x W x idW / sW;  R valid flags 2 x W bits (registers)
-  *   row above    2 rows x 2^idW x (dispBits + 1 + idW) (A's copy of the last two delay-line rows)
+  *   row above    2^(colBits + 1) x (dispBits + 1 + idW) (A's last pixels again, >= 2 rows)
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
   * about W nodes), plus L + 3 clocks of chain; [[PostProcessSpeckle.latencyRows]] = L + 2 bounds it.
-  * Memories: the delay line, the row above and the F maps are block RAM (SyncReadMem), each read one cycle ahead at
-  * the address its reader holds next cycle (D's row and column, A's column, the beat each chain stage holds next);
-  * none of those reads meets a write of the same cycle (A writes another row than it reads; D reads rows A has
-  * finished, C writes maps no beat in the chain still needs). P, K, R and S stay combinational (LUT-RAM): A reads
-  * K, R and S in a chain within one clock (the class of the up pixel, its node, that node's size). Row slots are
-  * wrapping counters, not `seq % n`.
+  * Memories: the delay line, the row above, the F maps and P are block RAM (SyncReadMem), each read one cycle ahead
+  * at the address its reader holds next cycle (D's row and column, A's pixel count, the beat each chain stage holds
+  * next, B's node). The delay line, row above and F map reads never meet a write of the same cycle (D reads rows A
+  * has finished, the row above was written frameW > 1 pixels earlier, C writes maps no beat in the chain still
+  * needs); P forwards one (A's last pixel can write node 0 as B starts that row). K, R and S stay combinational
+  * (LUT-RAM): A reads K, R and S in a chain within one clock (the class of the up pixel, its node, that node's
+  * size). Row slots are wrapping counters, not `seq % n`.
   */
 class PostProcessSpeckle(p: ElasParams) extends Module {
   private val L = p.speckleWindowRows
@@ -89,15 +90,19 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
 
   // ---- memories ----
-  // Delay line (block RAM, 1R1W): written by A, read by D one cycle ahead. A reads the row above from `upRows`, the
-  // last two rows again (block RAM, 1R1W), so the large memory needs no second read port.
+  // Delay line (block RAM, 1R1W): written by A, read by D one cycle ahead. A reads the row above from `upRows`, its
+  // last 2^(colBits + 1) pixels again (block RAM, 1R1W), so the large memory needs no second read port.
   val delay = SyncReadMem(ND * W, UInt((vW + idW).W))
   val upRows = SyncReadMem(2 << p.colBits, UInt((vW + idW).W))
   // F maps, one memory per row slot, {closed, size or node}. Chain stage i reads slot (seq + i) mod NF; stages of
   // one row read consecutive slots and only adjacent stages (across a row boundary) can meet on one slot, so two
   // read ports per slot suffice: even stages on port 0, odd stages on port 1.
   val fMaps = Seq.fill(NF)(SyncReadMem(W, UInt((1 + fW).W)))
-  val pMem = Mem(2 * W, UInt(idW.W))
+  // P: written by A, read by B only, at B's next node (one cycle ahead; block RAM). A's write of a node B reads next
+  // cycle (node 0 of the row just labelled, written by its last pixel) is forwarded.
+  val pMem = SyncReadMem(2 * W, UInt(idW.W))
+  val pWen = WireDefault(false.B); val pWAddr = WireDefault(0.U(16.W)); val pWData = WireDefault(0.U(idW.W))
+  when(pWen) { pMem.write(pWAddr, pWData) }
   val kMem = Mem(3 * W, UInt(idW.W)) // 3 rows: B never waits for C to finish reading K_{k-2}
   val rMem = Mem(2 * W, UInt(idW.W))
   val sMem = Mem(3 * W, UInt(sW.W))
@@ -141,19 +146,23 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val leftVal = Reg(SInt(vW.W))
 
   // B (declared here: A reads K_{k-1} while B writes it)
-  val bx = Reg(UInt((idW + 1).W))
+  val bx = RegInit(0.U((idW + 1).W)) // B's node; 0 whenever B is idle
+  val bxN = WireDefault(bx); bx := bxN
   val bCanStart = !bBusy && seqGe(aNext, bNext + 1.U) && seqGe(cDoneCnt + 1.U, bNext)
   val bActive = bBusy || bCanStart
-  val bxEff = Mux(bBusy, bx, 0.U)
+  val bxEff = bx
   val bComputed = Wire(UInt(idW.W))
   val bStarted = Mux(bActive, bNext + 1.U, bNext)
 
   val canStartRow = !aBusy && seqGe(bStarted, aSeq) && seqGe(cDoneCnt + 1.U, aSeq) && seqGe(dDone + ND.U, aSeq + 1.U)
   val rowStartNow = !aBusy
   val col = Mux(aBusy, aCol, 0.U)
-  // the up pixel (row aRow - 1) at this column, read one cycle ahead at the column A holds next cycle (upRows: row
-  // parity, column; A writes the other parity)
-  val upWord = upRows.read(Cat(!a2.next, Mux(aBusyN, aColN, 0.U)))
+  // the up pixel (row aRow - 1) at this column: upRows is a ring of A's pixels by pixel count, so it was written
+  // frameW pixels before this one. Read one cycle ahead at the position A holds next cycle (no write meets it:
+  // frameW > 1); the address is a plain difference of registers, so the read port keeps its address register.
+  val upPos = RegInit(0.U((p.colBits + 1).W)) // pixels taken, mod 2^(colBits + 1) >= 2 maxWidth
+  val upPosN = WireDefault(upPos); upPos := upPosN
+  val upWord = upRows.read(upPosN - frameW)
   val upVal = upWord(vW + idW - 1, idW).asSInt
   val upId = upWord(idW - 1, 0)
   val hasUp = aRow =/= 0.U
@@ -205,12 +214,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
       r := Mux(rowStartNow, 0.U, r) | Mux(touchNew, UIntToOH(cls, W), 0.U)
     }
     when(touchNew) { rMem.write(addr(aP, cls), pushTop) }
-    when(newRun || touchOld) { pMem.write(addr(aP, pushTop), Mux(touchOld, rn, pushTop)) }
+    when(newRun || touchOld) { pWen := true.B; pWAddr := addr(aP, pushTop); pWData := Mux(touchOld, rn, pushTop) }
     top := newTop
     topSize := newSize
     topAny := topAnyBase || valid
     delay.write(addr(aSlotD, col), Cat(inV.asUInt, thisRun))
-    upRows.write(Cat(a2.cur, col), Cat(inV.asUInt, thisRun))
+    upRows.write(upPos, Cat(inV.asUInt, thisRun))
+    upPosN := upPos + 1.U
     leftVal := inV
     aColN := col + 1.U
     when(lastCol) {
@@ -238,11 +248,17 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val bSlot = b2.cur
   val bKslot = b3.cur
   val bN = metaN(bD.cur)
-  val bPx = pMem(addr(bSlot, bxEff(idW - 1, 0)))
+  val bPx = {
+    val next = addr(b2.next, bxN(idW - 1, 0))
+    val hit = RegNext(pWen && pWAddr === next, false.B)
+    val fwd = RegEnable(pWData, pWen)
+    Mux(hit, fwd, pMem.read(next))
+  }
   bComputed := Mux(bPx === bxEff(idW - 1, 0), bPx, kMem(addr(bKslot, bPx)))
   when(bActive) {
     when(bxEff < bN) { kMem.write(addr(bKslot, bxEff(idW - 1, 0)), bComputed) }
-    when(bxEff + 1.U >= bN) { bBusy := false.B; bNext := bNext + 1.U; bD.inc(); b2.inc(); b3.inc() }.otherwise { bBusy := true.B; bx := bxEff + 1.U }
+    when(bxEff + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bD.inc(); b2.inc(); b3.inc() }
+      .otherwise { bBusy := true.B; bxN := bxEff + 1.U }
   }
 
   // ===== C: forward map F_k for the nodes of row k - 1 =====
@@ -377,12 +393,13 @@ object PostProcessSpeckle {
     Seq(
       MemoryUse("Speckle", "delay", delayRows(p) * w, p.dispBits + 1 + idW,
         s"(L + 4) rows x maxWidth, value + node id; SyncReadMem 1R1W (block RAM), read by D"),
-      MemoryUse("Speckle", "upRows", 2 << log2Ceil(p.maxWidth), p.dispBits + 1 + idW,
-        "2 rows x 2^colBits, the row above for A; SyncReadMem 1R1W (block RAM)"),
+      MemoryUse("Speckle", "upRows", 2 << p.colBits, p.dispBits + 1 + idW,
+        "A's last 2^(colBits + 1) >= 2 maxWidth pixels (the row above); SyncReadMem 1R1W (block RAM)"),
       MemoryUse("Speckle", "fmaps", mapRows(p) * w, 1 + math.max(idW, sW),
         "(L + 2) rows x maxWidth forward maps; one SyncReadMem per row, 2 read ports (block RAM)"),
-      MemoryUse("Speckle", "P/K/R", (2 + 3 + 2) * w, idW,
-        "merge parents (2 rows), flat classes (3), class -> node (2); Mem (LUT-RAM): chained reads within a clock"),
+      MemoryUse("Speckle", "P", 2 * w, idW, "merge parents (2 rows); SyncReadMem 1R1W (block RAM), read by B"),
+      MemoryUse("Speckle", "K/R", (3 + 2) * w, idW,
+        "flat classes (3 rows), class -> node (2); Mem (LUT-RAM): A reads them in a chain within a clock"),
       MemoryUse("Speckle", "S", 3 * w, sW, "saturating segment sizes, 3 rows; Mem (LUT-RAM)"),
       MemoryUse("Speckle", "Rvalid", 2, w, "touched-class flags (registers)"))
   }
