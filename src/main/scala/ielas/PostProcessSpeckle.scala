@@ -107,7 +107,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val rMem = Mem(2 * W, UInt(idW.W))
   val sMem = Mem(3 * W, UInt(sW.W))
   val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
-  private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, rValid(1), rValid(0))(idx)
+  // one bit of each buffer, then the buffer (not a 2 x maxWidth-bit mux before the bit select)
+  private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, rValid(1)(idx), rValid(0)(idx))
   // The last top node of a finished row and its size (not written back to sMem), per S buffer.
   val finTop = Reg(Vec(3, UInt(idW.W)))
   val finSize = Reg(Vec(3, UInt(sW.W)))
