@@ -31,9 +31,16 @@ import chisel3.util._
   *   delay line   (L + 4) rows x W x (dispBits + 1 + idW)
   *   F maps       (L + 2) rows x W x (1 + max(idW, sW)), one memory per row, 2 read ports
   *   P, R         2 rows x W x idW each;  K, S  3 rows x W x idW / sW;  R valid flags 2 x W bits (registers)
+  *   row above    2^(colBits + 1) x (dispBits + 1 + idW) (A's last pixels again, >= 2 rows)
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
   * about W nodes), plus L + 3 clocks of chain; [[PostProcessSpeckle.latencyRows]] = L + 2 bounds it.
-  * The memories are combinational-read (LUT RAM).
+  * Memories: the delay line, the row above, the F maps and P are block RAM (SyncReadMem), each read one cycle ahead
+  * at the address its reader holds next cycle (D's row and column, A's pixel count, the beat each chain stage holds
+  * next, B's node). The delay line, row above and F map reads never meet a write of the same cycle (D reads rows A
+  * has finished, the row above was written frameW > 1 pixels earlier, C writes maps no beat in the chain still
+  * needs); P forwards one (A's last pixel can write node 0 as B starts that row). K, R and S stay combinational
+  * (LUT-RAM): A reads K, R and S in a chain within one clock (the class of the up pixel, its node, that node's
+  * size). Row slots are wrapping counters, not `seq % n`.
   */
 class PostProcessSpeckle(p: ElasParams) extends Module {
   private val L = p.speckleWindowRows
@@ -69,20 +76,39 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val metaW = Reg(Vec(ND, UInt(p.colBits.W)))
   val metaH = Reg(Vec(ND, UInt(p.rowBits.W)))
   val metaN = Reg(Vec(ND, UInt((idW + 1).W))) // nodes of the row
-  private def slotOf(seq: UInt, n: Int): UInt = if (n == 1) 0.U else (seq % n.U)(log2Ceil(n) - 1, 0)
+  /** A row sequence counter's residue mod n as a wrapping register (no `seq % n`): `cur` now, `next` next cycle
+    * (for read addresses issued one cycle ahead), `prev` = (seq - 1) mod n, `plus(i)` = (seq + i) mod n. */
+  class Slot(n: Int) {
+    private val w = log2Ceil(n) max 1
+    val cur: UInt = RegInit(0.U(w.W))
+    val next: UInt = WireDefault(cur)
+    cur := next
+    def wrap(x: UInt): UInt = Mux(x >= n.U, x - n.U, x)(w - 1, 0)
+    def inc(): Unit = next := Mux(cur === (n - 1).U, 0.U, cur + 1.U)
+    def prev: UInt = Mux(cur === 0.U, (n - 1).U, cur - 1.U)
+    def plus(x: UInt, i: Int): UInt = wrap(x +& (i % n).U)
+  }
 
   // ---- memories ----
-  val delay = Mem(ND * W, UInt((vW + idW).W))
+  // Delay line (block RAM, 1R1W): written by A, read by D one cycle ahead. A reads the row above from `upRows`, its
+  // last 2^(colBits + 1) pixels again (block RAM, 1R1W), so the large memory needs no second read port.
+  val delay = SyncReadMem(ND * W, UInt((vW + idW).W))
+  val upRows = SyncReadMem(2 << p.colBits, UInt((vW + idW).W))
   // F maps, one memory per row slot, {closed, size or node}. Chain stage i reads slot (seq + i) mod NF; stages of
   // one row read consecutive slots and only adjacent stages (across a row boundary) can meet on one slot, so two
   // read ports per slot suffice: even stages on port 0, odd stages on port 1.
-  val fMaps = Seq.fill(NF)(Mem(W, UInt((1 + fW).W)))
-  val pMem = Mem(2 * W, UInt(idW.W))
+  val fMaps = Seq.fill(NF)(SyncReadMem(W, UInt((1 + fW).W)))
+  // P: written by A, read by B only, at B's next node (one cycle ahead; block RAM). A's write of a node B reads next
+  // cycle (node 0 of the row just labelled, written by its last pixel) is forwarded.
+  val pMem = SyncReadMem(2 * W, UInt(idW.W))
+  val pWen = WireDefault(false.B); val pWAddr = WireDefault(0.U(16.W)); val pWData = WireDefault(0.U(idW.W))
+  when(pWen) { pMem.write(pWAddr, pWData) }
   val kMem = Mem(3 * W, UInt(idW.W)) // 3 rows: B never waits for C to finish reading K_{k-2}
   val rMem = Mem(2 * W, UInt(idW.W))
   val sMem = Mem(3 * W, UInt(sW.W))
   val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
-  private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, rValid(1), rValid(0))(idx)
+  // one bit of each buffer, then the buffer (not a 2 x maxWidth-bit mux before the bit select)
+  private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, rValid(1)(idx), rValid(0)(idx))
   // The last top node of a finished row and its size (not written back to sMem), per S buffer.
   val finTop = Reg(Vec(3, UInt(idW.W)))
   val finSize = Reg(Vec(3, UInt(sW.W)))
@@ -93,8 +119,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // ---- engine counters (row sequence numbers) ----
   val aNext = RegInit(0.U(seqW.W)); val aBusy = RegInit(false.B)
+  val aBusyN = WireDefault(aBusy); aBusy := aBusyN
+  val aD = new Slot(ND); val a2 = new Slot(2); val a3 = new Slot(3)
+  def aInc(): Unit = { aNext := aNext + 1.U; aD.inc(); a2.inc(); a3.inc() }
   val bNext = RegInit(0.U(seqW.W)); val bBusy = RegInit(false.B)
+  val bD = new Slot(ND); val b2 = new Slot(2); val b3 = new Slot(3)
   val cNext = RegInit(0.U(seqW.W)); val cBusy = RegInit(false.B)
+  val cD = new Slot(ND); val c2 = new Slot(2); val c3 = new Slot(3); val cF = new Slot(NF)
   val dDone = RegInit(0.U(seqW.W)) // rows retired by D (left the last chain stage)
   val bDoneCnt = bNext
   val cDoneCnt = cNext
@@ -105,29 +136,34 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val frameW = Reg(UInt(p.colBits.W)); val frameH = Reg(UInt(p.rowBits.W))
   val aRow = Reg(UInt(p.rowBits.W)) // row in frame of the next / current row
   val aCol = Reg(UInt(p.colBits.W))
+  val aColN = WireDefault(aCol); aCol := aColN
   val aSeq = aNext
-  val aSlotD = slotOf(aSeq, ND)
-  val aPrevSlotD = slotOf(aSeq - 1.U, ND)
-  val aP = slotOf(aSeq, 2)
-  val aS = slotOf(aSeq, 3); val aSprev = slotOf(aSeq - 1.U, 3)
+  val aSlotD = aD.cur
+  val aP = a2.cur
+  val aS = a3.cur; val aSprev = a3.prev
   val cnt = Reg(UInt((idW + 1).W)) // nodes allocated in this row
   val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
   val runId = Reg(UInt(idW.W))
   val leftVal = Reg(SInt(vW.W))
 
   // B (declared here: A reads K_{k-1} while B writes it)
-  val bx = Reg(UInt((idW + 1).W))
+  val bx = RegInit(0.U((idW + 1).W)) // B's node; 0 whenever B is idle
+  val bxN = WireDefault(bx); bx := bxN
   val bCanStart = !bBusy && seqGe(aNext, bNext + 1.U) && seqGe(cDoneCnt + 1.U, bNext)
   val bActive = bBusy || bCanStart
-  val bxEff = Mux(bBusy, bx, 0.U)
+  val bxEff = bx
   val bComputed = Wire(UInt(idW.W))
   val bStarted = Mux(bActive, bNext + 1.U, bNext)
 
   val canStartRow = !aBusy && seqGe(bStarted, aSeq) && seqGe(cDoneCnt + 1.U, aSeq) && seqGe(dDone + ND.U, aSeq + 1.U)
   val rowStartNow = !aBusy
   val col = Mux(aBusy, aCol, 0.U)
-  // the up pixel (row aRow - 1) at this column
-  val upWord = delay(addr(aPrevSlotD, col))
+  // the up pixel (row aRow - 1) at this column: upRows is a ring of A's pixels by pixel count, so it was written
+  // frameW pixels before this one. Read one cycle ahead at the position A holds next cycle (no write meets it:
+  // frameW > 1); the address is a plain difference of registers, so the read port keeps its address register.
+  val upPos = RegInit(0.U((p.colBits + 1).W)) // pixels taken, mod 2^(colBits + 1) >= 2 maxWidth
+  val upPosN = WireDefault(upPos); upPos := upPosN
+  val upWord = upRows.read(upPosN - frameW)
   val upVal = upWord(vW + idW - 1, idW).asSInt
   val upId = upWord(idW - 1, 0)
   val hasUp = aRow =/= 0.U
@@ -137,7 +173,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val connectU = valid && hasUp && upVal >= 0.S && similar(inV, upVal)
   // K_{k-1}[upId], the flat class: B is flattening row k-1 right now or has finished it (bypass at its position)
   val bOnPrev = bActive && bNext === aSeq - 1.U
-  val kBuf = slotOf(aSeq - 1.U, 3)
+  val kBuf = a3.prev
   val cls = Mux(bOnPrev && upId === bxEff, bComputed, kMem(addr(kBuf, upId)))
   val kReady = !bOnPrev || upId <= bxEff
   io.in.ready := inFrame && (aBusy || canStartRow) && (!connectU || kReady)
@@ -166,7 +202,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val lastCol = col === frameW - 1.U
   when(take) {
     when(rowStartNow) {
-      aBusy := true.B
+      aBusyN := true.B
       metaVirtual(aSlotD) := false.B; metaRow(aSlotD) := aRow; metaW(aSlotD) := frameW; metaH(aSlotD) := frameH
       finAny(aS) := false.B
     }
@@ -179,16 +215,18 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
       r := Mux(rowStartNow, 0.U, r) | Mux(touchNew, UIntToOH(cls, W), 0.U)
     }
     when(touchNew) { rMem.write(addr(aP, cls), pushTop) }
-    when(newRun || touchOld) { pMem.write(addr(aP, pushTop), Mux(touchOld, rn, pushTop)) }
+    when(newRun || touchOld) { pWen := true.B; pWAddr := addr(aP, pushTop); pWData := Mux(touchOld, rn, pushTop) }
     top := newTop
     topSize := newSize
     topAny := topAnyBase || valid
     delay.write(addr(aSlotD, col), Cat(inV.asUInt, thisRun))
+    upRows.write(upPos, Cat(inV.asUInt, thisRun))
+    upPosN := upPos + 1.U
     leftVal := inV
-    aCol := col + 1.U
+    aColN := col + 1.U
     when(lastCol) {
-      aBusy := false.B
-      aNext := aNext + 1.U
+      aBusyN := false.B
+      aInc()
       metaN(aSlotD) := Mux(newRun, cntBase + 1.U, cntBase)
       finAny(aS) := topAnyBase || valid
       finTop(aS) := newTop
@@ -204,28 +242,34 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     metaVirtual(aSlotD) := true.B; metaRow(aSlotD) := frameH; metaW(aSlotD) := frameW; metaH(aSlotD) := frameH
     metaN(aSlotD) := 0.U
     finAny(aS) := false.B
-    aNext := aNext + 1.U
+    aInc()
   }
 
   // ===== B: flatten P_k into K_k (one node per clock, from the cycle it may start) =====
-  val bSlot = slotOf(bNext, 2)
-  val bKslot = slotOf(bNext, 3)
-  val bN = metaN(slotOf(bNext, ND))
-  val bPx = pMem(addr(bSlot, bxEff(idW - 1, 0)))
+  val bSlot = b2.cur
+  val bKslot = b3.cur
+  val bN = metaN(bD.cur)
+  val bPx = {
+    val next = addr(b2.next, bxN(idW - 1, 0))
+    val hit = RegNext(pWen && pWAddr === next, false.B)
+    val fwd = RegEnable(pWData, pWen)
+    Mux(hit, fwd, pMem.read(next))
+  }
   bComputed := Mux(bPx === bxEff(idW - 1, 0), bPx, kMem(addr(bKslot, bPx)))
   when(bActive) {
     when(bxEff < bN) { kMem.write(addr(bKslot, bxEff(idW - 1, 0)), bComputed) }
-    when(bxEff + 1.U >= bN) { bBusy := false.B; bNext := bNext + 1.U }.otherwise { bBusy := true.B; bx := bxEff + 1.U }
+    when(bxEff + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bD.inc(); b2.inc(); b3.inc() }
+      .otherwise { bBusy := true.B; bxN := bxEff + 1.U }
   }
 
   // ===== C: forward map F_k for the nodes of row k - 1 =====
   val cx = Reg(UInt((idW + 1).W))
   val cFirst = RegInit(true.B) // sequence 0 has no row before it
-  val cPrevN = Mux(cFirst, 0.U, metaN(slotOf(cNext - 1.U, ND)))
-  val cKbuf = slotOf(cNext - 1.U, 3)
-  val cRbuf = slotOf(cNext, 2)
-  val cSbuf = slotOf(cNext - 1.U, 3)
-  val cFslot = slotOf(cNext, NF)
+  val cPrevN = Mux(cFirst, 0.U, metaN(cD.prev))
+  val cKbuf = c3.prev
+  val cRbuf = c2.cur
+  val cSbuf = c3.prev
+  val cFslot = cF.cur
   val cCanStart = !cBusy && seqGe(aNext, cNext + 1.U) && seqGe(bDoneCnt, cNext) && seqGe(dDone + NF.U, cNext + 1.U)
   val cActive = cBusy || cCanStart
   val cxEff = Mux(cBusy, cx, 0.U)
@@ -237,13 +281,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     when(cxEff < cPrevN) {
       for ((m, b) <- fMaps.zipWithIndex) when(cFslot === b.U) { m.write(cxEff(idW - 1, 0), cEntry) }
     }
-    when(cxEff + 1.U >= cPrevN) { cBusy := false.B; cNext := cNext + 1.U; cFirst := false.B }
+    when(cxEff + 1.U >= cPrevN) { cBusy := false.B; cNext := cNext + 1.U; cFirst := false.B; cD.inc(); c2.inc(); c3.inc(); cF.inc() }
       .otherwise { cBusy := true.B; cx := cxEff + 1.U }
   }
 
   // ===== D: output chain =====
   class Beat extends Bundle {
-    val seq = UInt(seqW.W)
+    val fslot = UInt((log2Ceil(NF) max 1).W) // (row sequence) mod NF
     val value = SInt(vW.W)
     val closed = Bool()
     val ptr = UInt(fW.W)
@@ -265,16 +309,18 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   val dNext = RegInit(0.U(seqW.W)) // row being issued
   val dCol = RegInit(0.U(p.colBits.W))
-  val dSlot = slotOf(dNext, ND)
+  val dColN = WireDefault(dCol); dCol := dColN
+  val dD = new Slot(ND); val dF = new Slot(NF)
+  val dSlot = dD.cur
   val dVirt = metaVirtual(dSlot)
   val dRowV = metaRow(dSlot); val dH = metaH(dSlot); val dWd = metaW(dSlot)
   val dLen = Mux(dRowV +& (L - 1).U < dH - 1.U, (L - 1).U, dH - dRowV)
   val dReady = seqGe(aNext, dNext + 1.U) && Mux(dVirt, true.B, seqGe(cDoneCnt, dNext + dLen + 1.U))
-  val word = delay(addr(dSlot, dCol))
+  val word = delay.read(addr(dD.next, dColN)) // one cycle ahead: the row and column D holds next cycle
   val issue = dReady && advance
   val s0 = Wire(Valid(new Beat))
   s0.valid := issue
-  s0.bits.seq := dNext
+  s0.bits.fslot := dF.cur
   s0.bits.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
   s0.bits.closed := false.B
   s0.bits.ptr := word(idW - 1, 0)
@@ -286,33 +332,39 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   s0.bits.cols := dWd
   s0.bits.virt := dVirt
   when(issue) {
-    when(dVirt || dCol === dWd - 1.U) { dCol := 0.U; dNext := dNext + 1.U }.otherwise { dCol := dCol + 1.U }
+    when(dVirt || dCol === dWd - 1.U) { dColN := 0.U; dNext := dNext + 1.U; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
   }
-  // stage i (1..L) applies F_{seq + i} when i <= n
-  private val targets = (1 to L).map(i => slotOf(stages(i - 1).bits.seq + i.U, NF))
-  private val ptrs = (1 to L).map(i => stages(i - 1).bits.ptr(idW - 1, 0))
+  // stage i (1..L) applies F_{seq + i} when i <= n. The maps are read one cycle ahead: each port's address comes
+  // from the beats the stages hold next cycle (stagesNext), so a stage's lookup reads the data of its own beat.
+  private def target(i: Int, b: Beat): UInt = dF.plus(b.fslot, i)
   private def applies(i: Int, b: Beat): Bool = b.value >= 0.S && !b.closed && i.U <= b.n
-  private val needs = (1 to L).map(i => stages(i - 1).valid && applies(i, stages(i - 1).bits))
-  private val portData = fMaps.zipWithIndex.map { case (m, b) =>
-    (0 until 2).map { q =>
-      val users = (1 to L).filter(_ % 2 == q)
-      if (users.isEmpty) 0.U else m(PriorityMux(users.map(i => needs(i - 1) && targets(i - 1) === b.U) :+ true.B, users.map(i => ptrs(i - 1)) :+ 0.U))
-    }
-  }
+  private val portData: Seq[Seq[UInt]] = Seq.fill(NF)(Seq.fill(2)(Wire(UInt((1 + fW).W))))
   private def lookup(i: Int, b: Beat): Beat = {
     val r = Wire(new Beat)
     r := b
     val apply = applies(i, b)
-    val e = Mux1H(fMaps.indices.map(k => targets(i - 1) === k.U), portData.map(_(i % 2)))
+    val e = Mux1H(fMaps.indices.map(k => target(i, b) === k.U), portData.map(_(i % 2)))
     when(apply) { r.closed := e(fW); r.ptr := e(fW - 1, 0) }
     r
   }
-  when(advance) {
-    stages(0) := s0
-    for (i <- 1 to L) {
-      stages(i).valid := stages(i - 1).valid
-      stages(i).bits := lookup(i, stages(i - 1).bits)
+  val stagesNext: Seq[Valid[Beat]] = (0 to L).map { i =>
+    val moved = if (i == 0) s0 else {
+      val x = Wire(Valid(new Beat))
+      x.valid := stages(i - 1).valid
+      x.bits := lookup(i, stages(i - 1).bits)
+      x
     }
+    val n = Mux(advance, moved, stages(i))
+    stages(i) := n
+    n
+  }
+  for ((m, b) <- fMaps.zipWithIndex; q <- 0 until 2) {
+    val users = (1 to L).filter(_ % 2 == q)
+    val sel = users.map(i => stagesNext(i - 1).valid && applies(i, stagesNext(i - 1).bits) && target(i, stagesNext(i - 1).bits) === b.U)
+    val address = if (users.isEmpty) 0.U else PriorityMux(sel :+ true.B, users.map(i => stagesNext(i - 1).bits.ptr(idW - 1, 0)) :+ 0.U)
+    portData(b)(q) := (if (users.isEmpty) 0.U else m.read(address))
+  }
+  when(advance) {
     val last = stages(L)
     when(last.valid) {
       val b = last.bits
@@ -340,10 +392,16 @@ object PostProcessSpeckle {
   def memorySummary(p: ElasParams): Seq[MemoryUse] = {
     val (w, idW, sW) = (p.maxWidth, idBits(p), sizeBits(p))
     Seq(
-      MemoryUse("Speckle", "delay", delayRows(p) * w, p.dispBits + 1 + idW, s"(L + 4) rows x maxWidth, value + node id"),
-      MemoryUse("Speckle", "fmaps", mapRows(p) * w, 1 + math.max(idW, sW), "(L + 2) rows x maxWidth forward maps"),
-      MemoryUse("Speckle", "P/K/R", (2 + 3 + 2) * w, idW, "merge parents (2 rows), flat classes (3), class -> node (2)"),
-      MemoryUse("Speckle", "S", 3 * w, sW, "saturating segment sizes, 3 rows"),
+      MemoryUse("Speckle", "delay", delayRows(p) * w, p.dispBits + 1 + idW,
+        s"(L + 4) rows x maxWidth, value + node id; SyncReadMem 1R1W (block RAM), read by D"),
+      MemoryUse("Speckle", "upRows", 2 << p.colBits, p.dispBits + 1 + idW,
+        "A's last 2^(colBits + 1) >= 2 maxWidth pixels (the row above); SyncReadMem 1R1W (block RAM)"),
+      MemoryUse("Speckle", "fmaps", mapRows(p) * w, 1 + math.max(idW, sW),
+        "(L + 2) rows x maxWidth forward maps; one SyncReadMem per row, 2 read ports (block RAM)"),
+      MemoryUse("Speckle", "P", 2 * w, idW, "merge parents (2 rows); SyncReadMem 1R1W (block RAM), read by B"),
+      MemoryUse("Speckle", "K/R", (3 + 2) * w, idW,
+        "flat classes (3 rows), class -> node (2); Mem (LUT-RAM): A reads them in a chain within a clock"),
+      MemoryUse("Speckle", "S", 3 * w, sW, "saturating segment sizes, 3 rows; Mem (LUT-RAM)"),
       MemoryUse("Speckle", "Rvalid", 2, w, "touched-class flags (registers)"))
   }
 }
