@@ -517,6 +517,8 @@ def main():
     ap.add_argument("--freq", type=float, default=200.0)
     ap.add_argument("--modules", default="", help="comma-separated stage modules (default: every stage)")
     ap.add_argument("--no-top", action="store_true", help="skip the whole-top row")
+    ap.add_argument("--first", default="", help="comma-separated modules to run before the others (default: the "
+                    "smallest first, the top last)")
     ap.add_argument("--cached-only", action="store_true",
                     help="run no tool: report what the cache holds (a module without a cached result is 'not run')")
     ap.add_argument("--timeout", type=int, default=3600, help="wall-clock limit per tool run, seconds")
@@ -557,7 +559,9 @@ def main():
         order = {m: i for i, (m, _) in enumerate(rows)}
         done = []
         # Two passes: the 7-series column (native Yosys, minutes) for every module first, then the ECP5 runs.
-        run_order = sorted(rows, key=lambda r: (r[0] == args.top, size[r[0]]))
+        first = [m for m in args.first.split(",") if m]
+        run_order = sorted(rows, key=lambda r: (r[0] not in first, r[0] == args.top,
+                                                first.index(r[0]) if r[0] in first else 0, size[r[0]]))
         xres = {}
         for module, n in run_order:
             print(f"timing: {module}: 7-series synthesis + sta ...", flush=True)

@@ -3,7 +3,7 @@
 # Usage: scripts/timing/timing.sh CONFIG [VERILOG_DIR]     (docs/timing.md explains the numbers)
 # Environment: TIMING_MODULES=A,B (some stages only), TIMING_TOP=0 (no whole-top row), TIMING_FREQ (MHz, 200),
 #              TIMING_TIMEOUT (s per tool run, 3600), TIMING_DOC (page to write, docs/timing.md; empty = none),
-#              TIMING_CACHE (build/timing/cache).
+#              TIMING_CACHE (build/timing/cache), TIMING_FIRST=A,B (run these modules first; default: smallest first).
 set -euo pipefail
 cd "$(dirname "$0")/../.."   # the repository root: the WebAssembly tools only see files below their directory
 
@@ -28,4 +28,5 @@ args=(--config "$name" --verilog "$verilog" --venv "$VENV"
       --cache "${TIMING_CACHE:-build/timing/cache}" --doc "${TIMING_DOC-docs/timing.md}")
 [ -n "${TIMING_MODULES:-}" ] && args+=(--modules "$TIMING_MODULES")
 [ "${TIMING_TOP:-1}" = 0 ] && args+=(--no-top)
+[ -n "${TIMING_FIRST:-}" ] && args+=(--first "$TIMING_FIRST")
 exec python3 scripts/timing/flow.py "${args[@]}"
