@@ -390,8 +390,8 @@ def markdown(report):
         "file below it, byte for byte) and the flow are unchanged, so an identical module measured at another "
         "configuration is reused.",
         "",
-        "**The wrapper.** A stage has hundreds of port bits and the CABGA381 package 197 user IOs, so each module is "
-        "placed inside a generated wrapper (`scripts/timing/wrapper.py`) with three pins: the clock, a scan input "
+        "**The wrapper.** A stage has up to about a thousand port bits and the device 365 IO sites (nextpnr), so each "
+        "module is placed inside a generated wrapper (`scripts/timing/wrapper.py`) with three pins: the clock, a scan input "
         "feeding one shift register that drives every input bit of the module (`reset` included), and a scan "
         "output. Every output bit is captured in a register and the captured bits are folded into the scan output "
         "by a shift-and-XOR register. So every path of the module runs from a register to a register, nothing is "
@@ -426,7 +426,7 @@ def markdown(report):
     out += ["", "Device totals (nextpnr): TRELLIS_COMB 83 640, TRELLIS_FF 83 640, DP16KD 208, MULT18X18D 156. "
             "`inst` is how many times the top instantiates the module (`Descriptor` runs twice, early and late path).",
             "", "## Critical paths", "",
-            "| module | 7-series STA path (start -> end, cells on it) | ECP5 path: logic + routing ns | ECP5 logic steps |",
+            "| module | 7-series STA path (start -> end, steps on it) | ECP5 path: logic + routing ns | ECP5 logic steps |",
             "|---|---|---|---:|"]
     for r in report["rows"]:
         x, e = r["xc7"], r["ecp5"]
