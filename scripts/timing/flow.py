@@ -223,7 +223,8 @@ def ecp5_run(design, module, workdir, args, key):
             parsed["overfull"] = pnr_report.overfull(parsed.get("utilisation"))
         else:
             status = "error"
-            stage = "routing" if "Routing.." in log else "placement" if "Placed " in log else "packing"
+            stage = ("routing" if re.search(r"^Info: (Routing\.\.|Running router2)", log, re.M) else
+                     "placement" if "Placed " in log else "packing")
             parsed.setdefault("error", f"time limit ({args.timeout} s) during {stage}" if rc in (124, 137)
                               else f"exit {rc} during {stage}")
             parsed["error"] = "nextpnr-ecp5: " + parsed["error"]
@@ -592,7 +593,8 @@ def main():
                    "cached": x["cached"] and e["cached"], "wall_seconds": recorded, "seconds_this_run": run_s}
             done.append(row)
             fm, _ = ecp5_cells(e)
-            print(f"timing: {module}: ECP5 fmax {fm} ({'cached' if e['cached'] else str(sum(e['seconds'].values())) + ' s'})",
+            took = "cached" if e["cached"] else f"{sum(e['seconds'].values()):.0f} s"
+            print(f"timing: {module}: ECP5 fmax {fm} ({took})",
                   flush=True)
         report["rows"] = sorted(done, key=lambda r: order[r["module"]])
         report["wall_seconds"] = round(time.time() - start, 1)
