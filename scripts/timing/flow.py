@@ -433,11 +433,21 @@ def markdown(report):
             placed += f" (7-series: {x['measured_at']})"
         wall = r["wall_seconds"]
         wall_s = ("–" if "not_run" in (x.get("status"), e.get("status"))
+                  else f"{wall:.0f} (stopped)" if e.get("status") == "error"
                   else f"{wall:.0f}" + (" (cached)" if r["cached"] else ""))
         name = f"**{r['module']}** (whole top)" if r["is_top"] else f"`{r['module']}`"
         out.append(f"| {name} | {r['instances']} | {placed} | {lut} | {sta} | {fmax} | {cp} | "
                    f"{util_cell(e, 'TRELLIS_COMB')} | {util_cell(e, 'TRELLIS_FF')} | {util_cell(e, 'DP16KD')} | "
                    f"{util_cell(e, 'MULT18X18D')} | {fmt((e.get('wrapper') or {}).get('wrapper_ff'))} | {wall_s} |")
+    ok = [r for r in report["rows"] if r["ecp5"].get("status") == "ok"]
+    if ok:
+        slow = min(ok, key=lambda r: r["ecp5"]["fmax_mhz"])
+        fast = [r["module"] for r in ok if r["ecp5"]["fmax_mhz"] >= report["target_mhz"]]
+        deep = max((r for r in report["rows"] if r["xc7"].get("status") == "ok"), key=lambda r: r["xc7"]["lut_levels"])
+        out += ["", f"Placed and routed: {len(ok)} of {len(report['rows'])} modules. The slowest routed module is "
+                f"`{slow['module']}` at {slow['ecp5']['fmax_mhz']:.1f} MHz; at or above {report['target_mhz']:g} MHz: "
+                f"{', '.join('`' + m + '`' for m in fast) or 'none'}. The deepest logic is `{deep['module']}` "
+                f"({deep['xc7']['lut_levels']} LUT levels, {deep['xc7']['sta']['delay_ns']:.1f} ns before routing)."]
     out += ["", "Device totals (nextpnr): TRELLIS_COMB 83 640, TRELLIS_FF 83 640, DP16KD 208, MULT18X18D 156. "
             "`inst` is how many times the top instantiates the module (`Descriptor` runs twice, early and late path).",
             "", "## Critical paths", "",
@@ -466,7 +476,12 @@ def markdown(report):
     for r in report["rows"]:
         warns = (r["xc7"].get("sta") or {}).get("warnings") or []
         no_arrival = [w for w in warns if "has no (* sta_arrival *) value" in w]
-        other = [w for w in warns if w not in no_arrival]
+        unknown_end = [w for w in warns if "does not terminate in a recognised endpoint" in w]
+        other = [w for w in warns if w not in no_arrival and w not in unknown_end]
+        if unknown_end:
+            out.append(f"- `{r['module']}` 7-series `sta`: the latest path ends at a net that is no endpoint `sta` "
+                       "recognises (`Critical-path does not terminate in a recognised endpoint`); the figure is the "
+                       "arrival time there.")
         if no_arrival:
             out.append(f"- `{r['module']}` 7-series `sta`: {len(no_arrival)} endpoint bits without an arrival time "
                        "(no timed path reaches them, e.g. carry-chain bits fed only by constants); `sta` leaves them "
