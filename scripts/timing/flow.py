@@ -510,6 +510,10 @@ def markdown(report):
         "fabric with nextpnr's placement and routing against a LUT6 mapping without any routing.",
         "- Each module is timed alone: a path that crosses a stage boundary combinationally (a `ready` chain) is "
         "seen only in the whole-top row.",
+        "- A module whose place and route did not finish shows nextpnr's estimate after placement (no routing "
+        "delays) and keeps its synthesised netlist in `build/timing/<config>/ecp5-netlists/`: `make timing` with a "
+        "larger `TIMING_TIMEOUT` (seconds per tool run, default 3600) goes straight to nextpnr. The large stages take "
+        "10-15 min of WebAssembly Yosys and 30-60+ min of nextpnr each on this 2-core machine.",
         "- ECP5 utilisation counts the wrapper's registers too (`wrapper FF`); nextpnr places with one fixed seed, "
         "so fmax moves by a few percent with another seed.",
         "",
