@@ -97,6 +97,41 @@ object IElasEndToEndSpec {
     (cpp * (f.width.toLong * f.height + rows.toLong * f.width + c), s"$cpp x (N + $rows*W + $c)")
   }
 
+  /** Each frame alone under random gaps and back-pressure: every value and the framing, and no error raised. */
+  def eachAlone(dut: IElas, p: ElasParams, frames: Seq[Frame], expected: Seq[NpyArray], rnd: Random): Unit =
+    for ((f, exp) <- frames.zip(expected)) {
+      val traffic = Traffic(rnd.nextDouble() * 0.4, rnd.nextDouble() * 0.4)
+      val (_, got) = stream(dut, Seq(f), traffic, rnd, choppyBound(Seq(f), p), f.label, f.width.toLong * f.height)
+      val board = new Scoreboard(s"top [${f.label}]")
+      check(board, f, got.head, exp, 0)
+      assert(board.ok, board.report)
+      assert(!peek(dut.io.error), s"${f.label}: error raised by a legal frame")
+      println(f"  ${p.name}: ${board.report} (input gaps ${traffic.inputGap}%.2f, output stalls ${traffic.outputStall}%.2f)")
+    }
+
+  /** One frame with no stalls: exact, within the no-stall bound and not faster than the configuration's rate. */
+  def throughput(dut: IElas, p: ElasParams, full: Frame, expected: NpyArray, rnd: Random): Unit = {
+    val (cycles, got) = stream(dut, Seq(full), noStall, rnd, choppyBound(Seq(full), p), "throughput", full.width.toLong * full.height)
+    val tput = new Scoreboard("top [throughput]")
+    check(tput, full, got.head, expected, 0)
+    assert(tput.ok, tput.report)
+    val (bound, formula) = throughputBound(p, full)
+    println(s"  ${p.name}: throughput ${full.width}x${full.height}: $cycles cycles, bound $bound ($formula)")
+    assert(cycles <= bound, s"throughput: $cycles cycles > bound $bound ($formula)")
+    assert(cycles >= p.cyclesPerPixel.toLong * full.width * full.height, s"throughput: $cycles cycles, faster than the rate")
+  }
+
+  /** Frames of different sizes back to back: `order` indexes `frames` and `expected`. */
+  def backToBack(dut: IElas, p: ElasParams, frames: Seq[Frame], expected: Seq[NpyArray], order: Seq[Int], rnd: Random): Unit = {
+    val seq = order.map(frames(_))
+    val (_, b2b) = stream(dut, seq, Traffic(0.1, 0.1), rnd, choppyBound(seq, p), "back to back", seq.map(f => f.width.toLong * f.height).sum)
+    val board = new Scoreboard("top [back to back]")
+    assert(b2b.length == seq.length, s"back to back: ${b2b.length} output frames for ${seq.length}")
+    for (((k, f), i) <- order.zip(seq).zipWithIndex) check(board, f, b2b(i), expected(k), i)
+    assert(board.ok, board.report)
+    println(s"  ${p.name}: back to back ${seq.map(f => s"${f.width}x${f.height}").mkString(", ")}: ${board.report}")
+  }
+
   /** A configuration with cyclesPerPixel > 1 (small frames): real crops and noise under gaps and back-pressure,
     * frames of two sizes back to back, and the no-stall bound at the configuration's rate.
     */
@@ -114,30 +149,9 @@ object IElasEndToEndSpec {
     val expected = all.zipWithIndex.map { case (f, i) => golden(p, f, tmp.resolve(f"golden$i%02d")) }
     simulate(new IElas(p), tmp.resolve("verilator")) { dut =>
       reset(dut)
-      for ((f, exp) <- all.zip(expected)) {
-        val traffic = Traffic(rnd.nextDouble() * 0.4, rnd.nextDouble() * 0.4)
-        val (_, got) = stream(dut, Seq(f), traffic, rnd, choppyBound(Seq(f), p), f.label, f.width.toLong * f.height)
-        val board = new Scoreboard(s"top [${f.label}]")
-        check(board, f, got.head, exp, 0)
-        assert(board.ok, board.report)
-        println(f"  ${p.name}: ${board.report} (input gaps ${traffic.inputGap}%.2f, output stalls ${traffic.outputStall}%.2f)")
-      }
-      val full = all.head
-      val (cycles, got) = stream(dut, Seq(full), noStall, rnd, choppyBound(Seq(full), p), "throughput", full.width.toLong * full.height)
-      val tput = new Scoreboard("top [throughput]")
-      check(tput, full, got.head, expected.head, 0)
-      assert(tput.ok, tput.report)
-      val (bound, formula) = throughputBound(p, full)
-      println(s"  ${p.name}: throughput ${full.width}x${full.height}: $cycles cycles, bound $bound ($formula)")
-      assert(cycles <= bound, s"throughput: $cycles cycles > bound $bound ($formula)")
-      assert(cycles >= p.cyclesPerPixel.toLong * full.width * full.height, s"throughput: $cycles cycles, faster than the rate")
-      val seq = Seq(all(2), all(1))
-      val (_, b2b) = stream(dut, seq, Traffic(0.1, 0.1), rnd, choppyBound(seq, p), "back to back", seq.map(f => f.width.toLong * f.height).sum)
-      val b2bBoard = new Scoreboard("top [back to back]")
-      assert(b2b.length == seq.length, s"back to back: ${b2b.length} output frames for ${seq.length}")
-      for ((f, i) <- seq.zipWithIndex) check(b2bBoard, f, b2b(i), expected(Seq(2, 1)(i)), i)
-      assert(b2bBoard.ok, b2bBoard.report)
-      println(s"  ${p.name}: back to back ${seq.map(f => s"${f.width}x${f.height}").mkString(", ")}: ${b2bBoard.report}")
+      eachAlone(dut, p, all, expected, rnd)
+      throughput(dut, p, all.head, expected.head, rnd)
+      backToBack(dut, p, all, expected, Seq(2, 1), rnd)
     }
   }
 
@@ -167,42 +181,15 @@ object IElasEndToEndSpec {
     val expected = all.zipWithIndex.map { case (f, i) => golden(p, f, tmp.resolve(f"golden$i%02d")) }
     simulate(new IElas(p), tmp.resolve("verilator")) { dut =>
       reset(dut)
-      // Each case alone, random gaps and back-pressure.
-      for ((f, exp) <- all.zip(expected)) {
-        val traffic = Traffic(rnd.nextDouble() * 0.4, rnd.nextDouble() * 0.4)
-        val (_, got) = stream(dut, Seq(f), traffic, rnd, choppyBound(Seq(f), p), f.label, f.width.toLong * f.height)
-        val board = new Scoreboard(s"top [${f.label}]")
-        check(board, f, got.head, exp, 0)
-        assert(board.ok, board.report)
-        assert(!peek(dut.io.error), s"${f.label}: error raised by a legal frame")
-        println(f"  ${p.name}: ${board.report} (input gaps ${traffic.inputGap}%.2f, output stalls ${traffic.outputStall}%.2f)")
-      }
-
-      // Throughput with no stalls on the full frame: N + latencyRows * W + c.
-      val full = all.last
-      val (cycles, got) = stream(dut, Seq(full), noStall, rnd, choppyBound(Seq(full), p), "throughput", full.width.toLong * full.height)
-      val tput = new Scoreboard("top [throughput]")
-      check(tput, full, got.head, expected.last, 0)
-      assert(tput.ok, tput.report)
-      val (bound, formula) = throughputBound(p, full)
-      println(s"  ${p.name}: throughput ${full.width}x${full.height}: $cycles cycles, bound $bound ($formula)")
-      assert(cycles <= bound, s"throughput: $cycles cycles > bound $bound")
-
-      // Frames of different sizes back to back.
-      val order = Seq(2, 0, 4, 1)
-      val seq = order.map(all(_))
-      val (_, b2b) = stream(dut, seq, Traffic(0.1, 0.1), rnd, choppyBound(seq, p), "back to back", seq.map(f => f.width.toLong * f.height).sum)
-      val b2bBoard = new Scoreboard("top [back to back]")
-      assert(b2b.length == seq.length, s"back to back: ${b2b.length} output frames for ${seq.length}")
-      for (((k, f), i) <- order.zip(seq).zipWithIndex) check(b2bBoard, f, b2b(i), expected(k), i)
-      assert(b2bBoard.ok, b2bBoard.report)
-      println(s"  ${p.name}: back to back ${seq.map(f => s"${f.width}x${f.height}").mkString(", ")}: ${b2bBoard.report}")
+      eachAlone(dut, p, all, expected, rnd) // each case alone, random gaps and back-pressure
+      throughput(dut, p, all.last, expected.last, rnd) // no stalls on the full frame
+      backToBack(dut, p, all, expected, Seq(2, 0, 4, 1), rnd) // frames of different sizes
 
       // A truncated frame (its last rows never come), then a good frame: the error is raised, the truncated frame's
       // output ends after a whole line without eof and equals the golden map of the frame as the guard completes it
       // (zero pixels), and the good frame is bit-exact.
       val cut = 200
-      val t = full.copy(label = s"tsukuba truncated at row $cut", rows = cut)
+      val t = all.last.copy(label = s"tsukuba truncated at row $cut", rows = cut)
       def padded(img: GrayImage) = GrayImage(img.width, img.height, Array.tabulate(img.width * img.height)(i => if (i < img.width * cut) img.pixels(i) else 0.toByte))
       val padExp = golden(p, Frame("padded", padded(t.left), padded(t.right)), tmp.resolve("golden-padded"))
       val good = all.head
