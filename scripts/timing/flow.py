@@ -254,25 +254,31 @@ def ecp5_run(design, module, workdir, args, key):
 
 # ---------------------------------------------------------------------------------------------------------------
 
+def load_entry(path, key):
+    """The cached result at `path` when it was made for `key` (marked as cached), else None."""
+    if not os.path.exists(path):
+        return None
+    with open(path) as fh:
+        result = json.load(fh)
+    if result.get("key") != key:
+        return None
+    result["cached"] = True
+    return result
+
+
 def cached(design, module, kind, salt, args, runner):
     """A module's result from the cache, else from runner (cached unless it failed for a reason that may pass on a
     rerun: a tool error or time limit; `does_not_fit` is a result and is cached)."""
     key = design.content_hash(module, f"timing|{FLOW_VERSION}|{kind}|{salt}")
     entry = os.path.join(args.cache, f"{module}-{kind}-{key[:16]}.json")
-    if os.path.exists(entry):
-        with open(entry) as fh:
-            result = json.load(fh)
-        if result.get("key") == key:
-            result["cached"] = True
-            return result
+    result = load_entry(entry, key)
+    if result:
+        return result
     attempt = entry[:-len(".json")] + ".attempt.json"  # the last failed run, shown by --cached-only
     if args.cached_only:
-        if os.path.exists(attempt):
-            with open(attempt) as fh:
-                result = json.load(fh)
-            if result.get("key") == key:
-                result["cached"] = True
-                return result
+        result = load_entry(attempt, key)
+        if result:
+            return result
         return {"status": "not_run", "error": "no cached result when this page was written (--cached-only); "
                 "`make timing` measures it and keeps the rest from the cache",
                 "cached": False, "seconds": {} if kind == "ecp5" else 0}
