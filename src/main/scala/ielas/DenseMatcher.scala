@@ -13,27 +13,17 @@ import chisel3.util._
   * only when the cell row or grid row a pixel needs has not arrived yet. Output: dense_L and dense_R per pixel in
   * raster order (-1 invalid) with sof / eol / eof. frameWidth / frameHeight are sampled at the descriptor sof.
   *
-  * '''Descriptor window (why registers, not row buffers).''' Every pixel needs the SAD of its reference descriptor
-  * against the target descriptors of up to 2R+1 plane candidates and storedDisparities grid candidates, at target
-  * columns anywhere in u -+ 0..dispMax. Instead of one random 128-bit read port per candidate lane (a
-  * (dispMax+1):1 mux of 128 bits per lane and view, or one BRAM replica per lane), the stage computes the SAD of
-  * all dispMax+1 disparities of both views every clock from a register window over the descriptor stream and then
-  * selects each candidate's cost with a (dispMax+1):1 mux of only 12 bits. Both views are evaluated at the same
-  * pixel P = n - dispMax, n being the newest stream position, so that the right view's targets (columns u + d)
-  * have arrived:
-  *   left view:  reference descL(P) = winL(dispMax), targets descR(P - d) = winR(dispMax + d)
-  *   right view: reference descR(P) = winR(dispMax), targets descL(P + d) = winL(dispMax - d)
-  *   window registers = (dispMax + 1 + 2 dispMax + 1) x 128 bits   (small: 95 x 128; kitti: 767 x 128)
-  *   SAD16 units      = 2 (dispMax + 1) per clock (all disparities of both views, so every candidate set is
-  *                      served at one pixel per clock; denseLanes / denseLanesUsed are not used by this structure)
-  * The windows and SADs are the [[DisparityCosts]] submodule (2 (dispMax + 1) + 2 [[DescriptorSad]] units); this
-  * module keeps the candidate cost lookups. Per configuration, the LUTs of each (docs/sweep.md, "Where the LUTs go";
-  * docs/synthesis.md) are measured by `make sweep`. The per-lane alternative needs 2 (2R+1 + storedDisparities) = 50
-  * descriptor muxes of 128 bits, (dispMax+1):1 each: about 50 x 128 x 85 = 544k LUT6 at kitti (dispMax 255), more
-  * than the whole SAD-per-disparity structure. A further area step is possible:
-  * the right view's cost at (P, d) equals the left view's at (P + d, d), so a per-d delay line of dispMax - d
-  * steps (12 bits, SRL-friendly) could replace the right view's SAD units, at the price of evaluating the two
-  * views dispMax pixels apart (one rasteriser, plane and grid read per view position).
+  * '''Candidate lanes.''' A pixel has 2R+1 plane-range candidates and storedDisparities grid candidates per view,
+  * not dispMax+1, so each view has denseLanesUsed = ceil(candidates / cyclesPerPixel) lanes (candidate groups of
+  * one cycle each when cyclesPerPixel > 1), and each lane has its own replica of a descriptor ring (one read port
+  * per lane, a block RAM of ringDepth x 128 bits): the left view's lane k reads descR(P - d_k) from a ring of the
+  * right descriptors that have passed stage B, the right view's lane reads descL(P + d_k) from a ring written with
+  * the stream (position n), and one more ring holds both views' references. Both views are evaluated at the same
+  * pixel P = n - dispMax so that the right view's targets (columns u + d) have arrived. One [[DescriptorSad]] per
+  * lane; the first minimum over the lanes in candidate order (grid lanes, then the plane range) is the algorithm's
+  * selection. Read addresses follow the pipeline registers ([[DenseMatcher.stageRead]]), so a stalled stage repeats
+  * its read instead of holding 128-bit data. docs/architecture.md ("Fitting the device") gives the alternatives
+  * measured.
   * Entries that fall into another row (or the flush after a frame) are never selected: a candidate is skipped
   * unless m <= t <= W-1-m, which keeps t in P's row. After the last beat of a frame the stage inserts dispMax flush
   * steps (input not ready) to bring the frame's last dispMax pixels through.
@@ -61,8 +51,11 @@ import chisel3.util._
   * rows. Frames may follow each other back to back in all three streams; row banks are tagged with a frame parity
   * so the next frame's rows can load while the current frame ends.
   *
-  * Pipeline (lockstep, stalls as a whole): A (window shift, SADs, owner, plane and grid reads) -> B (plane value
-  * d_p, range lo..hi) -> C (candidate costs with the prior, first-minimum selection) -> output register.
+  * Pipeline (lockstep, stalls as a whole): A (window shift, owner, plane and grid reads) -> B -> B1 (texture SAD,
+  * plane offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi, candidates, ring reads; one
+  * cycle per candidate group) -> D (SADs) -> E (cost with the prior) -> F -> the first-minimum tree, two compare
+  * levels per register ([[DenseMatcher.treeRegisters]]) -> output register. Each register step is a few LUTs deep
+  * (docs/timing.md).
   */
 class DenseMatcher(p: ElasParams) extends Module {
   private val D = p.dispMax
@@ -412,51 +405,118 @@ class DenseMatcher(p: ElasParams) extends Module {
     Mux(owner(0), planes(1), planes(0))
   }
 
-  class StageB extends Bundle {
-    val u = UInt(colW.W)
-    val v = UInt(rowW.W)
+  /** What travels unchanged with a pixel from stage B to stage C. */
+  class Carry extends Bundle {
     val addr = UInt(ringW.W)
     val refs = Vec(2, UInt(descBits.W))
-    val live = Vec(2, Bool()) //            inside the margins and textured
     val reach = Vec(2, SInt((colW + 1).W)) // highest disparity whose target column is legal (< 0: none)
-    val plane = Vec(2, new PlaneCoeffs(p))
     val grid = Vec(2, Vec(S, SInt(dispW.W)))
     val sof = Bool()
     val eol = Bool()
     val eof = Bool()
   }
+  class StageB extends Bundle {
+    val u = UInt(colW.W)
+    val v = UInt(rowW.W)
+    val inside = Bool() // inside the margins
+    val carry = new Carry
+    val plane = Vec(2, new PlaneCoeffs(p))
+  }
   val bValid = RegInit(false.B)
   val b = Reg(new StageB)
   val inside = a.u >= m.U && a.u +& m.U <= width - 1.U && a.v >= m.U && a.v +& m.U <= height - 1.U
   val gridCell = readBank(gridBanks, gridSel, a.gx, p.gridColsMax)
-  val flat = VecInit(Seq.fill(p.descriptorBytes)(128.U(8.W))).asUInt
-  val texture = aRef.map(sad(_, flat))
   when(upAdv) {
     bValid := aValid
     b.u := a.u
     b.v := a.v
-    b.addr := aAddr
-    b.refs := aRef
-    for (view <- 0 until 2) b.live(view) := inside && texture(view) >= p.matchTexture.U
-    b.reach(0) := a.u.zext - m.S //                 left: target u - d needs u - d >= m
-    b.reach(1) := width.zext - 1.S - m.S - a.u.zext // right: target u + d needs u + d <= W - 1 - m
+    b.inside := inside
+    b.carry.addr := aAddr
+    b.carry.refs := aRef
+    b.carry.reach(0) := a.u.zext - m.S //                 left: target u - d needs u - d >= m
+    b.carry.reach(1) := width.zext - 1.S - m.S - a.u.zext // right: target u + d needs u + d <= W - 1 - m
+    b.carry.grid(0) := gridCell.left
+    b.carry.grid(1) := gridCell.right
+    b.carry.sof := a.u === 0.U && a.v === 0.U
+    b.carry.eol := rowEnd(a)
+    b.carry.eof := frameEnd(a)
     b.plane(0) := ownerRead(0)
     b.plane(1) := ownerRead(1)
-    b.grid(0) := gridCell.left
-    b.grid(1) := gridCell.right
-    b.sof := a.u === 0.U && a.v === 0.U
-    b.eol := rowEnd(a)
-    b.eof := frameEnd(a)
   }
   // the left view's targets: descR of the pixels that have passed stage B
-  when(upAdv && bValid) { ringR.foreach(_.write(b.addr, b.refs(1))) }
+  when(upAdv && bValid) { ringR.foreach(_.write(b.carry.addr, b.carry.refs(1))) }
   // release the row banks after their last pixel
   when(aFire && rowEnd(a)) {
     when(frameEnd(a) || nextCellRow(a)) { planeFull(planeSel) := false.B }
     when(frameEnd(a) || a.vG === (G - 1).U) { gridFull(gridSel) := false.B }
   }
 
-  // ---------------------------------------------------------------- stage B: plane value and range
+  // ---------------------------------------------------------------- stages B1..B3: texture, plane value and range
+  // d_p = (c + a (u - anchorU) + b (v - anchorV) + 2^15) >> 16 in three register steps (offsets, products, sum), the
+  // texture SAD beside them; the same exact integer arithmetic as one expression, only registered.
+  val flat = VecInit(Seq.fill(p.descriptorBytes)(128.U(8.W))).asUInt
+  private val termW = 32 + math.max(colW, rowW) + 2
+  class StageB1 extends Bundle {
+    val carry = new Carry
+    val inside = Bool()
+    val texture = Vec(2, UInt(DescriptorSad.bits(p.descriptorBytes).W))
+    val du = Vec(2, SInt((colW + 2).W))
+    val dv = Vec(2, SInt((rowW + 2).W))
+    val plane = Vec(2, new PlaneCoeffs(p))
+  }
+  val b1Valid = RegInit(false.B)
+  val b1 = Reg(new StageB1)
+  when(upAdv) {
+    b1Valid := bValid
+    b1.carry := b.carry
+    b1.inside := b.inside
+    for (view <- 0 until 2) {
+      b1.texture(view) := sad(b.carry.refs(view), flat)
+      b1.du(view) := b.u.zext - b.plane(view).anchorU
+      b1.dv(view) := b.v.zext - b.plane(view).anchorV.zext
+      b1.plane(view) := b.plane(view)
+    }
+  }
+  class StageB2 extends Bundle {
+    val carry = new Carry
+    val live = Vec(2, Bool()) // inside the margins and textured
+    val terms = Vec(2, Vec(3, SInt(termW.W))) // a du, b dv, c
+    val priorOn = Vec(2, Bool())
+  }
+  val b2Valid = RegInit(false.B)
+  val b2 = Reg(new StageB2)
+  when(upAdv) {
+    b2Valid := b1Valid
+    b2.carry := b1.carry
+    for (view <- 0 until 2) {
+      val pl = b1.plane(view)
+      b2.live(view) := b1.inside && b1.texture(view) >= p.matchTexture.U
+      b2.terms(view)(0) := pl.a * b1.du(view)
+      b2.terms(view)(1) := pl.b * b1.dv(view)
+      b2.terms(view)(2) := pl.c
+      b2.priorOn(view) := pl.valid
+    }
+  }
+  class StageB3 extends Bundle {
+    val carry = new Carry
+    val live = Vec(2, Bool())
+    val dp = Vec(2, SInt(termW.W)) // the plane's disparity (rounded)
+    val priorOn = Vec(2, Bool())
+  }
+  val b3Valid = RegInit(false.B)
+  val b3 = Reg(new StageB3)
+  when(upAdv) {
+    b3Valid := b2Valid
+    b3.carry := b2.carry
+    b3.live := b2.live
+    b3.priorOn := b2.priorOn
+    for (view <- 0 until 2) {
+      val t = b2.terms(view)
+      b3.dp(view) := (t(2) +& t(0) +& t(1) +& (1 << 15).S) >> 16
+    }
+  }
+
+  // ---------------------------------------------------------------- stage B3 -> C: the plane range
   class StageC extends Bundle {
     val addr = UInt(ringW.W)
     val refs = Vec(2, UInt(descBits.W))
@@ -474,19 +534,17 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
   val c = Reg(new StageC)
   when(upAdv) {
-    cValid := bValid
-    c.addr := b.addr
-    c.refs := b.refs
-    c.live := b.live
-    c.reach := b.reach
-    c.grid := b.grid
-    c.sof := b.sof
-    c.eol := b.eol
-    c.eof := b.eof
+    cValid := b3Valid
+    c.addr := b3.carry.addr
+    c.refs := b3.carry.refs
+    c.live := b3.live
+    c.reach := b3.carry.reach
+    c.grid := b3.carry.grid
+    c.sof := b3.carry.sof
+    c.eol := b3.carry.eol
+    c.eof := b3.carry.eof
     for (view <- 0 until 2) {
-      val pl = b.plane(view)
-      val q = pl.c +& pl.a * (b.u.zext - pl.anchorU) +& pl.b * (b.v.zext - pl.anchorV.zext) +& (1 << 15).S
-      val dp = q >> 16
+      val dp = b3.dp(view)
       val loRaw = dp - R.S
       val hiRaw = dp + R.S
       val lo = Mux(loRaw < 0.S, 0.S, loRaw)
@@ -495,7 +553,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       c.lo(view) := lo.asUInt
       c.hi(view) := hi.asUInt
       c.off(view) := (lo - dp).asSInt
-      c.priorOn(view) := pl.valid
+      c.priorOn(view) := b3.priorOn(view)
     }
   }
 
@@ -576,40 +634,63 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
 
   // ---------------------------------------------------------------- stage D: one SAD per candidate lane
+  // Stages D..F and the minimum tree move together on `adv`; each register level keeps its logic within a few LUTs:
+  // D -> E the SAD (target ring read, 16 byte differences, adder tree), E -> F cost = SAD + prior, then the first
+  // minimum over the lanes, two pairwise levels per register, and the running minimum over the groups at the end.
   class Scored extends Bundle {
     val valid = Bool()
     val cost = SInt(costW.W)
     val d = UInt(p.dispBits.W)
   }
-  class StageE extends Bundle {
+  class Tail extends Bundle { // what travels with a pixel's candidate group besides its candidates
     val live = Vec(2, Bool())
-    val cand = Vec(2, Vec(lanes, new Scored))
     val first = Bool()
     val last = Bool()
     val sof = Bool()
     val eol = Bool()
     val eof = Bool()
   }
+  class Sad extends Bundle {
+    val valid = Bool()
+    val sad = UInt(DescriptorSad.bits(p.descriptorBytes).W)
+    val d = UInt(p.dispBits.W)
+    val prior = SInt(costW.W)
+  }
+  def tailOf(x: StageD): Tail = {
+    val t = Wire(new Tail)
+    t.live := x.live; t.first := x.first; t.last := x.last; t.sof := x.sof; t.eol := x.eol; t.eof := x.eof
+    t
+  }
   val eValid = RegInit(false.B)
-  val e = Reg(new StageE)
+  val eTail = Reg(new Tail)
+  val eSad = Reg(Vec(2, Vec(lanes, new Sad)))
   val laneSad = (0 until 2).map(view => (0 until lanes).map(k => sad(dReg.refs(view), targets(view)(k))))
   when(adv) {
     eValid := dValid
-    e.live := dReg.live
+    eTail := tailOf(dReg)
     for (view <- 0 until 2; k <- 0 until lanes) {
       val x = dReg.cand(view)(k)
-      e.cand(view)(k).valid := x.valid
-      e.cand(view)(k).d := x.d
-      e.cand(view)(k).cost := laneSad(view)(k).zext + x.prior
+      eSad(view)(k).valid := x.valid
+      eSad(view)(k).d := x.d
+      eSad(view)(k).prior := x.prior
+      eSad(view)(k).sad := laneSad(view)(k)
     }
-    e.first := dReg.first
-    e.last := dReg.last
-    e.sof := dReg.sof
-    e.eol := dReg.eol
-    e.eof := dReg.eof
+  }
+  val fValid = RegInit(false.B)
+  val fTail = Reg(new Tail)
+  val fCand = Reg(Vec(2, Vec(lanes, new Scored)))
+  when(adv) {
+    fValid := eValid
+    fTail := eTail
+    for (view <- 0 until 2; k <- 0 until lanes) {
+      val x = eSad(view)(k)
+      fCand(view)(k).valid := x.valid
+      fCand(view)(k).d := x.d
+      fCand(view)(k).cost := x.sad.zext + x.prior
+    }
   }
 
-  // ---------------------------------------------------------------- stage E: the first minimum
+  // ---------------------------------------------------------------- the first minimum
   /** The first of the minimum costs in evaluation order (strict "<": a later candidate wins only if cheaper). */
   def firstOf(x: Scored, y: Scored): Scored = Mux(y.valid && (!x.valid || y.cost < x.cost), y, x)
   def firstMin(xs: Seq[Scored]): Scored =
@@ -618,30 +699,61 @@ class DenseMatcher(p: ElasParams) extends Module {
       val (l, r) = xs.splitAt(xs.length / 2)
       firstOf(firstMin(l), firstMin(r))
     }
+  // Registered levels of the tree: contiguous blocks of 4 lanes keep the candidate order, so the first minimum of
+  // the blocks' first minima is the first minimum of all. The last level leaves at most 2 values (one more compare
+  // with the earlier groups' minimum when groups > 1) or 4 (groups = 1).
+  var treeValid: Bool = fValid
+  var treeTail: Tail = fTail
+  var tree: Seq[Seq[Scored]] = fCand.map(_.toSeq)
+  while (tree.head.length > (if (groups == 1) 4 else 2)) {
+    val reduced = tree.map(_.grouped(4).map(firstMin).toSeq)
+    val v = RegInit(false.B)
+    val t = Reg(new Tail)
+    val r = Reg(Vec(2, Vec(reduced.head.length, new Scored)))
+    when(adv) {
+      v := treeValid
+      t := treeTail
+      for (view <- 0 until 2; k <- reduced.head.indices) r(view)(k) := reduced(view)(k)
+    }
+    treeValid = v; treeTail = t; tree = r.map(_.toSeq)
+  }
   val bestSoFar = Reg(Vec(2, new Scored)) // over the pixel's earlier candidate groups
   val result = (0 until 2).map { view =>
-    val groupBest = firstMin(e.cand(view))
-    val best = if (groups == 1) groupBest else Mux(e.first, groupBest, firstOf(bestSoFar(view), groupBest))
-    when(adv && eValid) { bestSoFar(view) := best }
-    Mux(e.live(view) && best.valid, best.d.zext, (-1).S(dispW.W))
+    val groupBest = firstMin(tree(view))
+    val best = if (groups == 1) groupBest else Mux(treeTail.first, groupBest, firstOf(bestSoFar(view), groupBest))
+    when(adv && treeValid) { bestSoFar(view) := best }
+    Mux(treeTail.live(view) && best.valid, best.d.zext, (-1).S(dispW.W))
   }
 
   when(io.out.fire) { outValid := false.B }
-  when(adv && eValid && e.last) {
+  when(adv && treeValid && treeTail.last) {
     outValid := true.B
     outBits.data.left := result(0)
     outBits.data.right := result(1)
-    outBits.sof := e.sof
-    outBits.eol := e.eol
-    outBits.eof := e.eof
+    outBits.sof := treeTail.sof
+    outBits.eol := treeTail.eol
+    outBits.eof := treeTail.eof
   }
   io.out.valid := outValid
   io.out.bits := outBits
 }
 
 object DenseMatcher {
-  /** Ring depth: a power of two above dispMax + 3, the pixels in flight between the ring writes and the reads. */
-  def ringDepth(p: ElasParams): Int = 1 << log2Ceil(p.dispMax + 4)
+  /** Per-pixel registers between stage B (where descR enters its ring) and stage C (where the rings are read). */
+  val planeStages: Int = 3
+
+  /** Ring depth: a power of two of at least dispMax + 4 + planeStages entries, the pixels in flight between the
+    * ring writes and the reads.
+    */
+  def ringDepth(p: ElasParams): Int = 1 << log2Ceil(p.dispMax + 4 + planeStages)
+
+  /** Registered levels of the first-minimum tree: each reduces blocks of 4 lanes until at most 4 (one candidate
+    * group per pixel) or 2 (several groups: one more compare with the earlier groups' minimum) are left.
+    */
+  def treeRegisters(p: ElasParams): Int = {
+    val keep = if (p.denseGroups == 1) 4 else 2
+    Iterator.iterate(p.denseLanesUsed)(n => (n + 3) / 4).takeWhile(_ > keep).length
+  }
 
   /** The data of a pipeline stage's memory entry, read one cycle ahead: when `enter`, the entry at `addr` enters the
     * stage; otherwise the stage keeps its entry and the read repeats its address (the memories are written only when
@@ -670,7 +782,8 @@ object DenseMatcher {
   /** Cycles a frame costs beyond its pixels: the flush, the three pipeline registers, and the first row's planes
     * and primer when they have not arrived during the first dispMax steps.
     */
-  def cycleSlack(p: ElasParams): Int = p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 4
+  def cycleSlack(p: ElasParams): Int =
+    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 4 + planeStages + 1 + treeRegisters(p)
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
