@@ -217,6 +217,8 @@ class DenseMatcher(p: ElasParams) extends Module {
     val gy = UInt(gridRowW.W)
     val vG = UInt(gInW.W)
     val fp = Bool()
+    val h = UInt(inW.W) //          cell height of the row: y1 - y0 of cell row cr
+    val uh = UInt((colW + inW).W) // u * h, kept by adding h (the rasteriser's scaled column)
   }
   def rowEnd(q: Pos): Bool = q.u === width - 1.U
   def frameEnd(q: Pos): Bool = rowEnd(q) && q.v === height - 1.U
@@ -228,15 +230,20 @@ class DenseMatcher(p: ElasParams) extends Module {
     when(rowEnd(q)) {
       n.u := 0.U; n.cu := 0.U; n.uIn := 0.U; n.gx := 0.U; n.uG := 0.U
       n.v := q.v + 1.U
+      n.uh := 0.U
+      n.h := Mux(Mux(nextCellRow(q), q.cr + 1.U === lastCellRow, q.cr === lastCellRow), lastRowH, step.U)
       when(nextCellRow(q)) { n.cr := q.cr + 1.U; n.vIn := 0.U }.otherwise { n.vIn := q.vIn + 1.U }
       when(q.vG === (G - 1).U) { n.gy := q.gy + 1.U; n.vG := 0.U }.otherwise { n.vG := q.vG + 1.U }
     }.otherwise {
       n.u := q.u + 1.U
+      n.uh := q.uh + q.h
       when(nextCellCol(q)) { n.cu := q.cu + 1.U; n.uIn := 0.U }.otherwise { n.uIn := q.uIn + 1.U }
       when(q.uG === (G - 1).U) { n.gx := q.gx + 1.U; n.uG := 0.U }.otherwise { n.uG := q.uG + 1.U }
     }
     n
   }
+  // The last cell row's height min(step, H - 1 - y0) (every other cell row is step high), for the pixel generator.
+  val lastRowH = RegNext(Mux(height - 1.U - lastCellRow * step.U < step.U, height - 1.U - lastCellRow * step.U, step.U))
   /** Row geometry of cell row cr at image row offset vIn: (h, up = y1 - v, down = v - y0). */
   def rowGeometry(cr: UInt, vIn: UInt): (UInt, UInt, UInt) = {
     val y0 = (cr * step.U).pad(rowW + 2)(rowW + 1, 0)
@@ -307,6 +314,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       genActive := true.B
       gen := 0.U.asTypeOf(new Pos)
       gen.fp := !inFp
+      gen.h := Mux(io.frameHeight - 1.U < step.U, io.frameHeight - 1.U, step.U) // cell row 0: min(step, H - 1)
     }.elsewhen(lag =/= D.U) {
       lag := lag + 1.U
     }.elsewhen(genActive) {
@@ -357,12 +365,14 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
 
   // ---------------------------------------------------------------- stage A
+  // Stage A decides what needs the window and the frame registers (the cover tests, the left owner's two products,
+  // the pixel's flags); A1 and A2 find the owner (priority encoder, then the carried owner), B reads the planes.
   val window = Reg(Vec(K, new Span))
-  val carry = Reg(UInt((cellW + 1).W)) // right view: owner of the last covered pixel, cell * 2 + t
-  val (aH, aUp, aDown) = rowGeometry(a.cr, a.vIn)
+  val aH = a.h
+  val aUp = (a.h - a.vIn)(inW - 1, 0)
+  val aDown = a.vIn
   val win = Mux(a.u === 0.U, shadow, window)
-  val uh = (a.u * aH).zext
-  val base = a.cu.zext - 1.S // cell of window entry 0
+  val uh = a.uh.zext
 
   when(aFire && a.u === 0.U) { shadowFull := false.B }
   // next window: shift by one cell when the next pixel enters the next cell
@@ -376,36 +386,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     }.otherwise { window := win }
   }
 
-  val fallback = Cat(lastCell, 1.U(1.W))
-  // Left view: cell cu spans x0..x1 (x1 = min(x0 + step, W - 1)), its triangles cover e = x0 h .. g and g .. f = x1 h
-  // with g = x1 (h - vIn) + x0 vIn, and no higher-indexed cell reaches u (its e is above u h; h >= 1 in every row), so
-  // the owner is (cu, t = 1) when u h >= g, else (cu, 0): the highest-indexed covering triangle of the general rule.
-  val leftOwner = {
-    val x0 = (a.cu * step.U).pad(colW + 2)(colW + 1, 0)
-    val x1raw = x0 +& step.U
-    val x1 = Mux(x1raw > width - 1.U, width - 1.U, x1raw)
-    val g = (x1 * aUp + x0 * aDown).zext
-    Cat(a.cu, uh >= g)(cellW, 0)
-  }
-  // Right view: the highest-indexed covering triangle in the window, else the carried owner.
-  val rightOwner = {
-    val covers = (0 until K).flatMap { j =>
-      val s = win(j)
-      (0 until 2).map(t => s.valid && s.lo(t) <= uh && uh <= s.hi(t))
-    } // index j*2 + t: drawing order
-    val any = covers.reduce(_ || _)
-    val top = (2 * K - 1).U - PriorityEncoder(covers.reverse)
-    val ownerCov = ((base << 1).asUInt + top)(cellW, 0)
-    val owner = Mux(any, ownerCov, Mux(a.u === 0.U, fallback, carry))
-    when(aFire) { carry := owner }
-    owner
-  }
-  val ownerRead = Seq(leftOwner, rightOwner).zip(Seq(planeBanksL, planeBanksR)).map { case (owner, banks) =>
-    val planes = readBank(banks, planeSel, owner >> 1, cellsMax)
-    Mux(owner(0), planes(1), planes(0))
-  }
-
-  /** What travels unchanged with a pixel from stage B to stage C. */
+  /** What travels unchanged with a pixel from stage A to stage C. */
   class Carry extends Bundle {
     val addr = UInt(ringW.W)
     val refs = Vec(2, UInt(descBits.W))
@@ -415,40 +396,106 @@ class DenseMatcher(p: ElasParams) extends Module {
     val eol = Bool()
     val eof = Bool()
   }
-  class StageB extends Bundle {
+  /** What travels with a pixel from stage A to stage B besides its Carry. */
+  class Pixel extends Bundle {
     val u = UInt(colW.W)
     val v = UInt(rowW.W)
-    val inside = Bool() // inside the margins
+    val inside = Bool() //      inside the margins
+    val planeSel = UInt(1.W) // its plane row bank
+    val release = Bool() //     the cell row's last pixel: its plane bank is free once the planes are read
+    val first = Bool() //       u = 0
+    val fallback = UInt((cellW + 1).W) // right-view owner of a row without covered pixels: the row's last triangle
     val carry = new Carry
-    val plane = Vec(2, new PlaneCoeffs(p))
+  }
+  val gridCell = readBank(gridBanks, gridSel, a.gx, p.gridColsMax)
+  val aPixel = Wire(new Pixel)
+  aPixel.u := a.u
+  aPixel.v := a.v
+  aPixel.inside := a.u >= m.U && a.u +& m.U <= width - 1.U && a.v >= m.U && a.v +& m.U <= height - 1.U
+  aPixel.planeSel := planeSel
+  aPixel.release := rowEnd(a) && (frameEnd(a) || nextCellRow(a))
+  aPixel.first := a.u === 0.U
+  aPixel.fallback := Cat(lastCell, 1.U(1.W))
+  aPixel.carry.addr := aAddr
+  aPixel.carry.refs := aRef
+  aPixel.carry.reach(0) := a.u.zext - m.S //                 left: target u - d needs u - d >= m
+  aPixel.carry.reach(1) := width.zext - 1.S - m.S - a.u.zext // right: target u + d needs u + d <= W - 1 - m
+  aPixel.carry.grid(0) := gridCell.left
+  aPixel.carry.grid(1) := gridCell.right
+  aPixel.carry.sof := a.u === 0.U && a.v === 0.U
+  aPixel.carry.eol := rowEnd(a)
+  aPixel.carry.eof := frameEnd(a)
+  // release the grid row bank after its last pixel (its read is in stage A)
+  when(aFire && rowEnd(a)) {
+    when(frameEnd(a) || a.vG === (G - 1).U) { gridFull(gridSel) := false.B }
+  }
+
+  // Left view: cell cu spans x0..x1 (x1 = min(x0 + step, W - 1)), its triangles cover e = x0 h .. g and g .. f = x1 h
+  // with g = x1 (h - vIn) + x0 vIn, and no higher-indexed cell reaches u (its e is above u h; h >= 1 in every row), so
+  // the owner is (cu, t = 1) when u h >= g, else (cu, 0): the highest-indexed covering triangle of the general rule.
+  // With u = x0 + uIn and w1 = x1 - x0, u h >= g is uIn h >= w1 (h - vIn): two products of step-sized numbers.
+  val lastCellWidth = RegNext(Mux(width - 1.U - lastCell * step.U < step.U, width - 1.U - lastCell * step.U, step.U))
+  class StageA1 extends Bundle {
+    val px = new Pixel
+    val cu = UInt(cellW.W)
+    val uInH = UInt((2 * inW).W)
+    val w1Up = UInt((2 * inW).W)
+    val covers = UInt((2 * K).W) // right view: triangle j*2 + t of the window covers the pixel (drawing order)
+    val base2 = UInt((cellW + 1).W) // 2 x (cell of window entry 0)
+  }
+  val a1Valid = RegInit(false.B)
+  val a1 = Reg(new StageA1)
+  when(upAdv) {
+    a1Valid := aValid
+    a1.px := aPixel
+    a1.cu := a.cu
+    a1.uInH := a.uIn * aH
+    a1.w1Up := Mux(a.cu === lastCell, lastCellWidth, step.U)(inW - 1, 0) * aUp
+    a1.covers := VecInit((0 until K).flatMap { j =>
+      val s = win(j)
+      (0 until 2).map(t => s.valid && s.lo(t) <= uh && uh <= s.hi(t))
+    }).asUInt
+    a1.base2 := ((a.cu - 1.U) << 1)(cellW, 0)
+  }
+  class StageA2 extends Bundle {
+    val px = new Pixel
+    val leftOwner = UInt((cellW + 1).W)
+    val covered = Bool()
+    val coverOwner = UInt((cellW + 1).W) // the highest-indexed covering triangle, cell * 2 + t
+  }
+  val a2Valid = RegInit(false.B)
+  val a2 = Reg(new StageA2)
+  when(upAdv) {
+    a2Valid := a1Valid
+    a2.px := a1.px
+    a2.leftOwner := Cat(a1.cu, a1.uInH >= a1.w1Up)(cellW, 0)
+    a2.covered := a1.covers.orR
+    a2.coverOwner := (a1.base2 + ((2 * K - 1).U - PriorityEncoder(Reverse(a1.covers))))(cellW, 0)
+  }
+  // Right view: the highest-indexed covering triangle in the window, else the owner of the last covered pixel.
+  val carry = Reg(UInt((cellW + 1).W))
+  val rightOwner = Mux(a2.covered, a2.coverOwner, Mux(a2.px.first, a2.px.fallback, carry))
+  when(upAdv && a2Valid) { carry := rightOwner }
+
+  class StageB extends Bundle {
+    val px = new Pixel
+    val owner = Vec(2, UInt((cellW + 1).W))
   }
   val bValid = RegInit(false.B)
   val b = Reg(new StageB)
-  val inside = a.u >= m.U && a.u +& m.U <= width - 1.U && a.v >= m.U && a.v +& m.U <= height - 1.U
-  val gridCell = readBank(gridBanks, gridSel, a.gx, p.gridColsMax)
   when(upAdv) {
-    bValid := aValid
-    b.u := a.u
-    b.v := a.v
-    b.inside := inside
-    b.carry.addr := aAddr
-    b.carry.refs := aRef
-    b.carry.reach(0) := a.u.zext - m.S //                 left: target u - d needs u - d >= m
-    b.carry.reach(1) := width.zext - 1.S - m.S - a.u.zext // right: target u + d needs u + d <= W - 1 - m
-    b.carry.grid(0) := gridCell.left
-    b.carry.grid(1) := gridCell.right
-    b.carry.sof := a.u === 0.U && a.v === 0.U
-    b.carry.eol := rowEnd(a)
-    b.carry.eof := frameEnd(a)
-    b.plane(0) := ownerRead(0)
-    b.plane(1) := ownerRead(1)
+    bValid := a2Valid
+    b.px := a2.px
+    b.owner(0) := a2.leftOwner
+    b.owner(1) := rightOwner
   }
   // the left view's targets: descR of the pixels that have passed stage B
-  when(upAdv && bValid) { ringR.foreach(_.write(b.carry.addr, b.carry.refs(1))) }
-  // release the row banks after their last pixel
-  when(aFire && rowEnd(a)) {
-    when(frameEnd(a) || nextCellRow(a)) { planeFull(planeSel) := false.B }
-    when(frameEnd(a) || a.vG === (G - 1).U) { gridFull(gridSel) := false.B }
+  when(upAdv && bValid) { ringR.foreach(_.write(b.px.carry.addr, b.px.carry.refs(1))) }
+  // the plane row bank is free once the cell row's last pixel has read it (stage B)
+  when(upAdv && bValid && b.px.release) { planeFull(b.px.planeSel) := false.B }
+  val ownerPlanes = Seq(planeBanksL, planeBanksR).zipWithIndex.map { case (banks, view) =>
+    val planes = readBank(banks, b.px.planeSel, b.owner(view) >> 1, cellsMax)
+    Mux(b.owner(view)(0), planes(1), planes(0))
   }
 
   // ---------------------------------------------------------------- stages B1..B3: texture, plane value and range
@@ -468,13 +515,13 @@ class DenseMatcher(p: ElasParams) extends Module {
   val b1 = Reg(new StageB1)
   when(upAdv) {
     b1Valid := bValid
-    b1.carry := b.carry
-    b1.inside := b.inside
+    b1.carry := b.px.carry
+    b1.inside := b.px.inside
     for (view <- 0 until 2) {
-      b1.texture(view) := sad(b.carry.refs(view), flat)
-      b1.du(view) := b.u.zext - b.plane(view).anchorU
-      b1.dv(view) := b.v.zext - b.plane(view).anchorV.zext
-      b1.plane(view) := b.plane(view)
+      b1.texture(view) := sad(b.px.carry.refs(view), flat)
+      b1.du(view) := b.px.u.zext - ownerPlanes(view).anchorU
+      b1.dv(view) := b.px.v.zext - ownerPlanes(view).anchorV.zext
+      b1.plane(view) := ownerPlanes(view)
     }
   }
   class StageB2 extends Bundle {
@@ -739,13 +786,14 @@ class DenseMatcher(p: ElasParams) extends Module {
 }
 
 object DenseMatcher {
-  /** Per-pixel registers between stage B (where descR enters its ring) and stage C (where the rings are read). */
+  /** Per-pixel registers added for timing: A1, A2 (the owner) and B1..B3 (the plane value). */
+  val ownerStages: Int = 2
   val planeStages: Int = 3
 
-  /** Ring depth: a power of two of at least dispMax + 4 + planeStages entries, the pixels in flight between the
-    * ring writes and the reads.
+  /** Ring depth: a power of two of at least dispMax + 4 + ownerStages + planeStages entries, the pixels in flight
+    * between the ring writes and the reads.
     */
-  def ringDepth(p: ElasParams): Int = 1 << log2Ceil(p.dispMax + 4 + planeStages)
+  def ringDepth(p: ElasParams): Int = 1 << log2Ceil(p.dispMax + 4 + ownerStages + planeStages)
 
   /** Registered levels of the first-minimum tree: each reduces blocks of 4 lanes until at most 4 (one candidate
     * group per pixel) or 2 (several groups: one more compare with the earlier groups' minimum) are left.
@@ -783,7 +831,7 @@ object DenseMatcher {
     * and primer when they have not arrived during the first dispMax steps.
     */
   def cycleSlack(p: ElasParams): Int =
-    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 4 + planeStages + 1 + treeRegisters(p)
+    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 4 + ownerStages + planeStages + 1 + treeRegisters(p)
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
