@@ -53,7 +53,7 @@ import chisel3.util._
   *
   * Pipeline (lockstep, stalls as a whole): A (window shift, owner, plane and grid reads) -> B -> B1 (texture SAD,
   * plane offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi, candidates, ring reads; one
-  * cycle per candidate group) -> D (SADs) -> E (cost with the prior) -> F -> the first-minimum tree, two compare
+  * cycle per candidate group) -> D (ring data) -> D2 (SADs) -> E (cost with the prior) -> F -> the first-minimum tree, two compare
   * levels per register ([[DenseMatcher.treeRegisters]]) -> output register. Each register step is a few LUTs deep
   * (docs/timing.md).
   */
@@ -711,12 +711,21 @@ class DenseMatcher(p: ElasParams) extends Module {
   val eValid = RegInit(false.B)
   val eTail = Reg(new Tail)
   val eSad = Reg(Vec(2, Vec(lanes, new Sad)))
-  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => sad(dReg.refs(view), targets(view)(k))))
+  // D -> D2: the ring data registered before the SAD (a LUT-RAM ring reads combinationally from its address register)
+  val d2Valid = RegInit(false.B)
+  val d2 = Reg(new StageD)
+  val d2Targets = Reg(Vec(2, Vec(lanes, UInt(descBits.W))))
   when(adv) {
-    eValid := dValid
-    eTail := tailOf(dReg)
+    d2Valid := dValid
+    d2 := dReg
+    for (view <- 0 until 2; k <- 0 until lanes) d2Targets(view)(k) := targets(view)(k)
+  }
+  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => sad(d2.refs(view), d2Targets(view)(k))))
+  when(adv) {
+    eValid := d2Valid
+    eTail := tailOf(d2)
     for (view <- 0 until 2; k <- 0 until lanes) {
-      val x = dReg.cand(view)(k)
+      val x = d2.cand(view)(k)
       eSad(view)(k).valid := x.valid
       eSad(view)(k).d := x.d
       eSad(view)(k).prior := x.prior
@@ -831,7 +840,7 @@ object DenseMatcher {
     * and primer when they have not arrived during the first dispMax steps.
     */
   def cycleSlack(p: ElasParams): Int =
-    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 4 + ownerStages + planeStages + 1 + treeRegisters(p)
+    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 4 + ownerStages + planeStages + 2 + treeRegisters(p)
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
