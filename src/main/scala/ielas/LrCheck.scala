@@ -19,7 +19,8 @@ import chisel3.util._
   * pixels, or the processor's sequential read of L(u), R(u)) and a read port (R(u - d) or L(u + d)):
   *   buffer bits = 3 x 2 x maxWidth x (dispBits + 1)   (kitti: 3 x 2 x 1242 x 9 = 67,068 bits).
   * A row is processed once its eol has arrived (the right check looks up to dispMax columns ahead), in a
-  * 3-stage pipeline (sequential read, lookup read, compare into the output register). The third slot is what
+  * 5-stage pipeline (sequential read, its data register, lookup read, its data register, compare into the output
+  * register; each step a few LUTs deep, docs/timing.md). The third slot is what
   * makes it stall-free: row v + 3 overwrites row v's slot, which retired about W cycles earlier; with two slots
   * the writer would wait for the pipeline's drain at every row. Nothing grows with the image height.
   *
@@ -88,6 +89,17 @@ class LrCheck(p: ElasParams) extends Module {
   val s1Eol = Reg(Bool())
   val s1Eof = Reg(Bool())
 
+  // s1b: L(u), R(u) registered (a LUT-RAM slot reads combinationally from its address register)
+  val s1bValid = RegInit(false.B)
+  val s1bSlot = Reg(UInt(2.W))
+  val s1bU = Reg(UInt(p.colBits.W))
+  val s1bLen = Reg(UInt(p.colBits.W))
+  val s1bDL = Reg(valueType)
+  val s1bDR = Reg(valueType)
+  val s1bSof = Reg(Bool())
+  val s1bEol = Reg(Bool())
+  val s1bEof = Reg(Bool())
+
   // s2: R(u - dL), L(u + dR) arrive from the read ports
   val s2Valid = RegInit(false.B)
   val s2Slot = Reg(UInt(2.W))
@@ -124,49 +136,78 @@ class LrCheck(p: ElasParams) extends Module {
     lookDataL(s) := memL(s).read(lookL)
   }
 
-  // ---- s1: bounds of the lookups ----
-  val dL = seqL(s1Slot)
-  val dR = seqR(s1Slot)
-  val tl = s1U.zext - dL // left pixel u sees right column u - d
-  val tr = s1U +& dR.asUInt // right pixel u sees left column u + d (only read when dR >= 0)
+  // ---- s1b: bounds of the lookups ----
+  val dL = s1bDL
+  val dR = s1bDR
+  val tl = s1bU.zext - dL // left pixel u sees right column u - d
+  val tr = s1bU +& dR.asUInt // right pixel u sees left column u + d (only read when dR >= 0)
   val inL = dL >= 0.S && tl >= 0.S
-  val inR = dR >= 0.S && tr < s1Len
-  val addrR = Mux(inL, tl.asUInt, s1U)(addrW - 1, 0) // an address that exists when the lookup is not needed
-  val addrL = Mux(inR, tr, s1U)(addrW - 1, 0)
+  val inR = dR >= 0.S && tr < s1bLen
+  val addrR = Mux(inL, tl.asUInt, s1bU)(addrW - 1, 0) // an address that exists when the lookup is not needed
+  val addrL = Mux(inR, tr, s1bU)(addrW - 1, 0)
   lookR := Mux(advance, addrR, s2AddrR)
   lookL := Mux(advance, addrL, s2AddrL)
 
-  // ---- s2: the comparisons ----
+  // ---- s3: the looked-up values registered, then the comparisons ----
+  val s3Valid = RegInit(false.B)
+  val s3 = Reg(new Bundle {
+    val dL = SInt((p.dispBits + 1).W); val dR = SInt((p.dispBits + 1).W); val inL = Bool(); val inR = Bool()
+    val otherR = SInt((p.dispBits + 1).W); val otherL = SInt((p.dispBits + 1).W) // R(u - dL), L(u + dR)
+    val sof = Bool(); val eol = Bool(); val eof = Bool()
+  })
   def consistent(d: SInt, other: SInt): Bool = {
     val diff = other -& d
     other >= 0.S && Mux(diff < 0.S, -diff, diff) <= p.lrThreshold.S
   }
-  val keepL = s2InL && consistent(s2DL, lookDataR(s2Slot))
-  val keepR = s2InR && consistent(s2DR, lookDataL(s2Slot))
+  val keepL = s3.inL && consistent(s3.dL, s3.otherR)
+  val keepR = s3.inR && consistent(s3.dR, s3.otherL)
 
   when(io.out.fire) { outValid := false.B }
   when(advance) {
     // output register
-    outValid := s2Valid
-    outBits.data.left := Mux(keepL, s2DL, (-1).S)
-    outBits.data.right := Mux(keepR, s2DR, (-1).S)
-    outBits.sof := s2Sof
-    outBits.eol := s2Eol
-    outBits.eof := s2Eof
-    when(s2Valid && s2Eol) { busy(s2Slot) := false.B } // the row's last pixel leaves: its slot may be rewritten
+    outValid := s3Valid
+    outBits.data.left := Mux(keepL, s3.dL, (-1).S)
+    outBits.data.right := Mux(keepR, s3.dR, (-1).S)
+    outBits.sof := s3.sof
+    outBits.eol := s3.eol
+    outBits.eof := s3.eof
 
-    // s1 -> s2
-    s2Valid := s1Valid
-    s2Slot := s1Slot
+    // s2 -> s3
+    s3Valid := s2Valid
+    s3.dL := s2DL
+    s3.dR := s2DR
+    s3.inL := s2InL
+    s3.inR := s2InR
+    s3.otherR := lookDataR(s2Slot)
+    s3.otherL := lookDataL(s2Slot)
+    s3.sof := s2Sof
+    s3.eol := s2Eol
+    s3.eof := s2Eof
+    when(s2Valid && s2Eol) { busy(s2Slot) := false.B } // the row's last lookups are done: its slot may be rewritten
+
+    // s1b -> s2
+    s2Valid := s1bValid
+    s2Slot := s1bSlot
     s2DL := dL
     s2DR := dR
     s2InL := inL
     s2InR := inR
     s2AddrR := addrR
     s2AddrL := addrL
-    s2Sof := s1Sof
-    s2Eol := s1Eol
-    s2Eof := s1Eof
+    s2Sof := s1bSof
+    s2Eol := s1bEol
+    s2Eof := s1bEof
+
+    // s1 -> s1b
+    s1bValid := s1Valid
+    s1bSlot := s1Slot
+    s1bU := s1U
+    s1bLen := s1Len
+    s1bDL := seqL(s1Slot)
+    s1bDR := seqR(s1Slot)
+    s1bSof := s1Sof
+    s1bEol := s1Eol
+    s1bEof := s1Eof
 
     // s0 -> s1
     s1Valid := issue
@@ -198,8 +239,8 @@ object LrCheck {
   /** Rows of latency: the throughput bound is N + latencyRows * W + cycleSlack cycles for N input pixels. */
   val latencyRows: Int = 1
 
-  /** Cycles beyond one row: the slot flags, the two memory reads and the output register. */
-  val cycleSlack: Int = 4
+  /** Cycles beyond one row: the slot flags, the two memory reads, their two data registers and the output register. */
+  val cycleSlack: Int = 6
 
   /** Extra input wait, once, when a frame of width `narrow` follows one of width `wide`: rows narrower than half
     * the previous row fill the other two slots before the wide row has left the pipeline. Bounded by `wide`.
