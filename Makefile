@@ -74,13 +74,16 @@ test-golden: golden ## golden unit tests (hand-computed cases), CLI error tests,
 	IELAS_GOLDEN=$(abspath $(GOLDEN)) python3 scripts/test_check_inputs.py
 
 # ---- hardware ----
-verilog: check-inputs deps-sim ## SystemVerilog of the IElas top in build/verilog/<config>/ + memory summary
+verilog: check-inputs deps-sim ## SystemVerilog of IElas and IElasAxi in build/verilog/<config>/ + register map, FuseSoC core, memory summary
 	$(call SBT_RUN,"run verilog $(CONFIG) $(VERILOG_DIR)")
 	@$(MAKE) --no-print-directory lint CONFIG=$(CONFIG)
 
 lint: check-inputs ## verilator --lint-only -Wall on build/verilog/<config>/*.sv (+ lint.vlt waivers)
 	@test -n "$$(ls $(VERILOG_DIR)/*.sv 2>/dev/null)" || { echo "lint: no Verilog in $(VERILOG_DIR) (run make verilog CONFIG=$(CONFIG))"; exit 1; }
 	verilator --lint-only -Wall $(wildcard $(VERILOG_DIR)/lint.vlt) $(VERILOG_DIR)/*.sv --top-module IElas
+	@if [ -f $(VERILOG_DIR)/IElasAxi.sv ]; then \
+	  echo "verilator --lint-only -Wall $(VERILOG_DIR)/lint.vlt $(VERILOG_DIR)/*.sv --top-module IElasAxi"; \
+	  verilator --lint-only -Wall $(wildcard $(VERILOG_DIR)/lint.vlt) $(VERILOG_DIR)/*.sv --top-module IElasAxi; fi
 	@echo "lint: clean ($(VERILOG_DIR))"
 
 simulate: check-inputs deps-sim ## Verilator model up to STAGE: writes STAGE's .npy files and cycles.txt to OUT
