@@ -3,7 +3,8 @@ package ielas
 import java.nio.file.Paths
 
 /** Command-line front door used by the Makefile and by `sbt run`:
-  *   (no arguments)                emit the default configuration (kitti) as SystemVerilog into build/verilog/kitti
+  *   (no arguments)                emit the default configuration (kitti) as SystemVerilog into build/verilog/kitti,
+  *                                 with the IElasAxi wrapper (as `make verilog`)
   *   --width W --height H ...      emit a custom configuration from the card parameters (`--help` lists them;
   *                                 `--axi` adds the IElasAxi wrapper)
   *   configs [DIR]                 write every named configuration to DIR (default golden/configs)
@@ -23,8 +24,8 @@ object Main {
   def run(args: Array[String]): Int =
       try {
         args.toList match {
-          case Nil =>
-            emit(ElasParams.byName("kitti"), None)
+          case Nil => // what `make verilog` writes for the default configuration
+            emit(ElasParams.byName("kitti"), None, axi = true)
             0
           case ("--help" | "-h") :: _ =>
             println(usage)
@@ -87,7 +88,7 @@ object Main {
     ("--cycles-per-pixel", "cyclesPerPixel", "1, 2, 4, 8"))
 
   val usage: String =
-    (Seq("usage: sbt \"run [--name NAME] [--base CONFIG] [--out DIR] FLAG VALUE ...\"   (no arguments: the kitti configuration)",
+    (Seq("usage: sbt \"run [--name NAME] [--base CONFIG] [--out DIR] FLAG VALUE ...\"   (no arguments: the kitti configuration, with IElasAxi)",
       "  emits SystemVerilog of the IElas top and NAME.json (the configuration the golden model reads) into DIR",
       "  (default build/verilog/NAME); unset flags keep the base configuration's values (default base: kitti)") ++
       cardFlags.map { case (f, field, legal) => f"  $f%-20s $field%-18s legal: $legal" } ++
