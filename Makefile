@@ -26,7 +26,7 @@ VERILOG_DIR = build/verilog/$(CONFIG_NAME)
 
 .PHONY: help deps deps-sim deps-golden deps-synth configs golden golden-test verilog lint simulate compare run \
         test test-golden test-hw test-full bench eval synth sweep clean \
-        sweep-configs sweep-point sweep-hwcheck test-sweep test-sim timing
+        sweep-configs sweep-point sweep-hwcheck test-sweep test-sim timing fusesoc-lint
 
 help: ## this list
 	@echo "Streaming iELAS stereo accelerator generator"
@@ -47,7 +47,7 @@ deps-sim deps-golden deps-synth: | check-inputs
 run: PREFLIGHT = --config '$(CONFIG)' --left '$(LEFT)' --right '$(RIGHT)' --gt '$(GT)'
 simulate: PREFLIGHT = --config '$(CONFIG)' --left '$(LEFT)' --right '$(RIGHT)' --require left,right
 eval: PREFLIGHT = --config '$(if $(PRESET),,$(CONFIG))'
-verilog lint synth: PREFLIGHT = --config '$(CONFIG)'
+verilog lint fusesoc-lint synth: PREFLIGHT = --config '$(CONFIG)'
 sweep-point: PREFLIGHT = --point '$(POINT)' --require point
 
 # ---- installs (idempotent; skipped when present) ----
@@ -74,14 +74,31 @@ test-golden: golden ## golden unit tests (hand-computed cases), CLI error tests,
 	IELAS_GOLDEN=$(abspath $(GOLDEN)) python3 scripts/test_check_inputs.py
 
 # ---- hardware ----
-verilog: check-inputs deps-sim ## SystemVerilog of the IElas top in build/verilog/<config>/ + memory summary
+verilog: check-inputs deps-sim ## SystemVerilog of IElas and IElasAxi in build/verilog/<config>/ + register map, FuseSoC core, memory summary
 	$(call SBT_RUN,"run verilog $(CONFIG) $(VERILOG_DIR)")
 	@$(MAKE) --no-print-directory lint CONFIG=$(CONFIG)
 
 lint: check-inputs ## verilator --lint-only -Wall on build/verilog/<config>/*.sv (+ lint.vlt waivers)
 	@test -n "$$(ls $(VERILOG_DIR)/*.sv 2>/dev/null)" || { echo "lint: no Verilog in $(VERILOG_DIR) (run make verilog CONFIG=$(CONFIG))"; exit 1; }
 	verilator --lint-only -Wall $(wildcard $(VERILOG_DIR)/lint.vlt) $(VERILOG_DIR)/*.sv --top-module IElas
+	@if [ -f $(VERILOG_DIR)/IElasAxi.sv ]; then \
+	  echo "verilator --lint-only -Wall $(VERILOG_DIR)/lint.vlt $(VERILOG_DIR)/*.sv --top-module IElasAxi"; \
+	  verilator --lint-only -Wall $(wildcard $(VERILOG_DIR)/lint.vlt) $(VERILOG_DIR)/*.sv --top-module IElasAxi; fi
 	@echo "lint: clean ($(VERILOG_DIR))"
+
+# FuseSoC from PyPI in a venv of its own; the core file is written by `make verilog` (IElasAxi.fusesocCore).
+FUSESOC      := build/fusesoc-venv/bin/fusesoc
+FUSESOC_CORE  = ielas:ip:ielas_axi_$(subst -,_,$(subst .,_,$(CONFIG_NAME)))
+$(FUSESOC):
+	scripts/install-deps.sh venv
+	python3 -m venv build/fusesoc-venv
+	build/fusesoc-venv/bin/pip install -q 'fusesoc>=2.3,<3'
+
+fusesoc-lint: check-inputs deps-sim $(FUSESOC) ## FuseSoC runs the Verilator lint target of build/verilog/<config>/ielas_axi.core
+	@test -f $(VERILOG_DIR)/ielas_axi.core || { echo "fusesoc-lint: no $(VERILOG_DIR)/ielas_axi.core (run make verilog CONFIG=$(CONFIG))"; exit 1; }
+	rm -rf build/fusesoc/$(CONFIG_NAME) && mkdir -p build/fusesoc/$(CONFIG_NAME)
+	cd build/fusesoc/$(CONFIG_NAME) && $(abspath $(FUSESOC)) --cores-root $(abspath $(VERILOG_DIR)) run --target lint $(FUSESOC_CORE)
+	@echo "fusesoc-lint: clean ($(FUSESOC_CORE))"
 
 simulate: check-inputs deps-sim ## Verilator model up to STAGE: writes STAGE's .npy files and cycles.txt to OUT
 	@test -n "$(LEFT)" -a -n "$(RIGHT)" || { echo "simulate: set LEFT= and RIGHT="; exit 1; }
@@ -102,6 +119,7 @@ run: check-inputs golden verilog ## the main job: Verilog for kitti, then a ster
 # ---- tests ----
 test: deps test-golden test-hw test-synth test-sim test-sweep ## everything CI runs (small configurations; < 60 min cold on 2 cores)
 	@$(MAKE) --no-print-directory verilog CONFIG=small
+	@$(MAKE) --no-print-directory fusesoc-lint CONFIG=small
 	@$(MAKE) --no-print-directory verilog CONFIG=kitti
 	@echo "make test: all passed"
 

@@ -44,6 +44,8 @@ class FrameGuard(p: ElasParams) extends Module {
     /** The size of the frame being put out (sampled at its SOF). */
     val outWidth = Output(UInt(p.colBits.W))
     val outHeight = Output(UInt(p.rowBits.W))
+    /** One-cycle pulses, one bit per cause of `error` ([[FrameGuard.Cause]]), for a register file's sticky bits. */
+    val errorCauses = Output(UInt(FrameGuard.Cause.count.W))
   })
 
   // ---- state ----
@@ -91,6 +93,7 @@ class FrameGuard(p: ElasParams) extends Module {
   val malformed = WireDefault(false.B) // this step finds the current frame malformed
   val frameEnd = WireDefault(false.B)  // this step puts out the frame's last pixel
   val starting = WireDefault(false.B)  // this step starts a frame (its aborted beat is still to come)
+  val cause = WireDefault(VecInit(Seq.fill(FrameGuard.Cause.count)(false.B)))
 
   /** Puts out pixel (px, py) of a frame of width w, height h; returns whether it is the line's last. */
   def emit(left: UInt, right: UInt, px: UInt, py: UInt, w: UInt, h: UInt): Bool = {
@@ -127,6 +130,7 @@ class FrameGuard(p: ElasParams) extends Module {
         padFrame := true.B
         dropLine := false.B
         malformed := true.B
+        cause(FrameGuard.Cause.earlySof) := true.B
       }.elsewhen(src.sof) { // start of frame
         dropLine := false.B
         when(FrameSize.isLegal(p, srcWidth, srcHeight)) {
@@ -136,20 +140,21 @@ class FrameGuard(p: ElasParams) extends Module {
           width := srcWidth
           height := srcHeight
           emit(src.left, src.right, 0.U, 0.U, srcWidth, srcHeight) // never the line's last: W >= 32
-          when(src.eol) { padLine := true.B; malformed := true.B }
+          when(src.eol) { padLine := true.B; malformed := true.B; cause(FrameGuard.Cause.shortLine) := true.B }
         }.otherwise {
           active := false.B
           afterFrame := false.B // the rest of this frame is dropped silently
           setError := true.B
+          cause(FrameGuard.Cause.size) := true.B
         }
       }.elsewhen(dropLine) {
         when(src.eol) { dropLine := false.B }
       }.elsewhen(active) {
         val lastCol = emit(src.left, src.right, x, y, width, height)
-        when(src.eol && !lastCol) { padLine := true.B; malformed := true.B } // too short
-        when(!src.eol && lastCol) { dropLine := true.B; malformed := true.B } // too long
+        when(src.eol && !lastCol) { padLine := true.B; malformed := true.B; cause(FrameGuard.Cause.shortLine) := true.B }
+        when(!src.eol && lastCol) { dropLine := true.B; malformed := true.B; cause(FrameGuard.Cause.longLine) := true.B }
       }.otherwise { // outside any frame
-        when(afterFrame) { setError := true.B }
+        when(afterFrame) { setError := true.B; cause(FrameGuard.Cause.extraLines) := true.B }
       }
     }
   }
@@ -181,9 +186,22 @@ class FrameGuard(p: ElasParams) extends Module {
   io.error := error
   io.outWidth := width
   io.outHeight := height
+  io.errorCauses := cause.asUInt
 }
 
 object FrameGuard {
+  /** The bits of `errorCauses`: size at SOF illegal (frame dropped), a line too short, a line too long, SOF in
+    * mid-frame, pixels after the frame's last line.
+    */
+  object Cause {
+    val size = 0
+    val shortLine = 1
+    val longLine = 2
+    val earlySof = 3
+    val extraLines = 4
+    val count = 5
+  }
+
   /** Aborted beats the guard can be ahead of their consumer. */
   val abortedDepth: Int = 2
 

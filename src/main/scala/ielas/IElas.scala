@@ -30,9 +30,16 @@ class IElas(p: ElasParams) extends Module {
     val error = Output(Bool())
     val clearError = Input(Bool())
     val out = Decoupled(new Framed(SInt(16.W)))
+    /** Pulses for a register file (IElasAxi): the cause of each error ([[FrameGuard.Cause]] bits), and a frame found
+      * malformed (its output will be cut).
+      */
+    val errorCauses = Output(UInt(FrameGuard.Cause.count.W))
+    val frameAborted = Output(Bool())
   })
   val pipeline = new Pipeline(p, Stage.Post, io.in, io.frameWidth, io.frameHeight, io.clearError)
   io.error := pipeline.error
+  io.errorCauses := pipeline.guard.io.errorCauses
+  io.frameAborted := pipeline.aborted.fire && pipeline.aborted.bits
 
   val gate = Module(new OutputGate)
   gate.io.in <> pipeline.post

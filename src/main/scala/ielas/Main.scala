@@ -3,10 +3,13 @@ package ielas
 import java.nio.file.Paths
 
 /** Command-line front door used by the Makefile and by `sbt run`:
-  *   (no arguments)                emit the default configuration (kitti) as SystemVerilog into build/verilog/kitti
-  *   --width W --height H ...      emit a custom configuration from the card parameters (`--help` lists them)
+  *   (no arguments)                emit the default configuration (kitti) as SystemVerilog into build/verilog/kitti,
+  *                                 with the IElasAxi wrapper (as `make verilog`)
+  *   --width W --height H ...      emit a custom configuration from the card parameters (`--help` lists them;
+  *                                 `--axi` adds the IElasAxi wrapper)
   *   configs [DIR]                 write every named configuration to DIR (default golden/configs)
-  *   verilog CONFIG [DIR]          emit the accelerator top as SystemVerilog into DIR (default build/verilog/CONFIG)
+  *   verilog CONFIG [DIR]          emit the accelerator top and the IElasAxi wrapper (with its register map and
+  *                                 FuseSoC core) as SystemVerilog into DIR (default build/verilog/CONFIG)
   *   config DIR SPEC...            write one configuration per SPEC = NAME:BASE[:KEY=VALUE,...] to DIR/NAME.json
   *                                 (BASE a name or JSON; KEY a constructor field of ElasParams; SAD lanes re-derived
   *                                 unless given) and its cycle-model figures to DIR/NAME.model.json (the sweep's)
@@ -21,15 +24,15 @@ object Main {
   def run(args: Array[String]): Int =
       try {
         args.toList match {
-          case Nil =>
-            emit(ElasParams.byName("kitti"), None)
+          case Nil => // what `make verilog` writes for the default configuration
+            emit(ElasParams.byName("kitti"), None, axi = true)
             0
           case ("--help" | "-h") :: _ =>
             println(usage)
             0
           case flags @ (first :: _) if first.startsWith("--") =>
-            val (p, dir) = fromFlags(flags)
-            emit(p, dir)
+            val (p, dir) = fromFlags(flags.filterNot(_ == "--axi"))
+            emit(p, dir, axi = flags.contains("--axi"))
             0
           case "configs" :: rest =>
             val dir = Paths.get(rest.headOption.getOrElse("golden/configs"))
@@ -38,7 +41,7 @@ object Main {
           case "verilog" :: config :: rest =>
             val p = ConfigJson.load(config)
             val dir = Paths.get(rest.headOption.getOrElse(s"build/verilog/${p.name}"))
-            VerilogEmitter.emitTop(p, dir)
+            VerilogEmitter.emitTop(p, dir, axi = true)
             0
           case "config" :: dir :: specs if specs.nonEmpty =>
             val out = Paths.get(dir)
@@ -85,10 +88,12 @@ object Main {
     ("--cycles-per-pixel", "cyclesPerPixel", "1, 2, 4, 8"))
 
   val usage: String =
-    (Seq("usage: sbt \"run [--name NAME] [--base CONFIG] [--out DIR] FLAG VALUE ...\"   (no arguments: the kitti configuration)",
+    (Seq("usage: sbt \"run [--name NAME] [--base CONFIG] [--out DIR] FLAG VALUE ...\"   (no arguments: the kitti configuration, with IElasAxi)",
       "  emits SystemVerilog of the IElas top and NAME.json (the configuration the golden model reads) into DIR",
       "  (default build/verilog/NAME); unset flags keep the base configuration's values (default base: kitti)") ++
-      cardFlags.map { case (f, field, legal) => f"  $f%-20s $field%-18s legal: $legal" }).mkString("\n")
+      cardFlags.map { case (f, field, legal) => f"  $f%-20s $field%-18s legal: $legal" } ++
+      Seq("  --axi                also emit the IElasAxi wrapper (AXI4-Stream video + AXI4-Lite registers), its",
+        "                       register map (IElasAxi_regs.h, IElasAxi_regs.md) and a FuseSoC core (ielas_axi.core)")).mkString("\n")
 
   /** Flags to a configuration: every value an integer that fits, every range checked by ElasParams. */
   private def fromFlags(flags: List[String]): (ElasParams, Option[String]) = {
@@ -109,9 +114,9 @@ object Main {
   }
 
   /** Verilog of the top plus the configuration JSON beside it. */
-  private def emit(p: ElasParams, dir: Option[String]): Unit = {
+  private def emit(p: ElasParams, dir: Option[String], axi: Boolean = false): Unit = {
     val out = Paths.get(dir.getOrElse(s"build/verilog/${p.name}"))
-    VerilogEmitter.emitTop(p, out)
+    VerilogEmitter.emitTop(p, out, axi)
     println(s"wrote ${ConfigJson.write(p, out)}")
   }
 

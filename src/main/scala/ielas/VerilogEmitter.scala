@@ -1,6 +1,6 @@
 package ielas
 
-import java.nio.file.Path
+import java.nio.file.{Files, Path}
 
 /** Emits SystemVerilog with firtool options that Verilator lint and Yosys 0.23 both accept (docs/toolchain.md). */
 object VerilogEmitter {
@@ -20,7 +20,8 @@ object VerilogEmitter {
     _root_.circt.stage.ChiselStage.emitSystemVerilog(gen, Array.empty[String], firtoolOptions ++ Array("-o", dir.toString))
   }
 
-  def emitTop(p: ElasParams, dir: Path): Unit = {
+  /** The IElas top (and with `axi` the [[IElasAxi]] wrapper beside it) into `dir`. */
+  def emitTop(p: ElasParams, dir: Path, axi: Boolean = false): Unit = {
     emit(new IElas(p), dir)
     // Verilator -Wall waivers for firtool's output, one reason each (docs/interfaces.md §5, docs/toolchain.md).
     val waivers = Seq(
@@ -37,5 +38,33 @@ object VerilogEmitter {
     memories.foreach(m => println("  " + m))
     println(f"  total ${memories.map(_.bits).sum}%d bits (${memories.map(_.bits).sum / 36864.0}%.1f BRAM36 by capacity)")
     println(s"wrote SystemVerilog to $dir")
+    if (axi) emitAxi(p, dir)
+  }
+
+  /** IElasAxi.sv (and any module only the wrapper uses) beside the IElas files already in `dir`, the register map
+    * (IElasAxi_regs.h, IElasAxi_regs.md) and a FuseSoC core (ielas_axi.core). The wrapper is elaborated on its own
+    * into a scratch directory: every file it shares with IElas must come out identical to the one in `dir`, so
+    * IElas.sv stays exactly what `emit(new IElas(p))` writes.
+    */
+  def emitAxi(p: ElasParams, dir: Path): Unit = {
+    import scala.jdk.CollectionConverters._
+    val scratch = Files.createTempDirectory("ielas-axi-")
+    try {
+      emit(new IElasAxi(p), scratch)
+      val files = Files.list(scratch).iterator().asScala.toSeq.filter(_.toString.endsWith(".sv")).sortBy(_.toString)
+      for (f <- files) {
+        val target = dir.resolve(f.getFileName.toString)
+        if (Files.exists(target) && f.getFileName.toString != "IElasAxi.sv") {
+          if (!java.util.Arrays.equals(Files.readAllBytes(f), Files.readAllBytes(target)))
+            throw new IllegalStateException(s"IElasAxi's ${f.getFileName} differs from the one IElas wrote in $dir")
+        } else Files.copy(f, target, java.nio.file.StandardCopyOption.REPLACE_EXISTING)
+      }
+      IElasAxi.writeRegisterMap(p, dir).foreach(f => println(s"wrote $f"))
+      Files.write(dir.resolve("ielas_axi.core"), IElasAxi.fusesocCore(p, files.map(_.getFileName.toString)).getBytes("UTF-8"))
+      println(s"wrote IElasAxi and ${dir.resolve("ielas_axi.core")}")
+    } finally {
+      Files.list(scratch).iterator().asScala.foreach(Files.delete)
+      Files.delete(scratch)
+    }
   }
 }

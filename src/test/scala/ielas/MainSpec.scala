@@ -55,5 +55,17 @@ class MainSpec extends AnyFlatSpec with Matchers {
     Files.exists(dir.resolve("IElas.sv")) shouldBe true
     val p = ConfigJson.load(dir.resolve("cli-small.json").toString)
     (p.maxWidth, p.maxHeight, p.dispMax, p.storedDisparities) shouldBe ((96, 64, 23, 12))
+    Files.exists(dir.resolve("IElasAxi.sv")) shouldBe false // only with --axi
+  }
+
+  it should "emit the IElasAxi wrapper, its register map and FuseSoC core with --axi" in {
+    val dir = Files.createTempDirectory("ielas-main-axi")
+    val (code, _, err) = capture("--base", "small", "--name", "cli-axi", "--axi", "--width", "64", "--out", dir.toString)
+    withClue(err) { code shouldBe 0 }
+    for (f <- Seq("IElas.sv", "IElasAxi.sv", "IElasAxi_regs.h", "IElasAxi_regs.md", "ielas_axi.core", "cli-axi.json"))
+      withClue(f) { Files.exists(dir.resolve(f)) shouldBe true }
+    val header = new String(Files.readAllBytes(dir.resolve("IElasAxi_regs.h")), "UTF-8")
+    header should include("#define IELAS_AXI_MAX_WIDTH_VALUE 64u")
+    new String(Files.readAllBytes(dir.resolve("ielas_axi.core")), "UTF-8") should include("name: ielas:ip:ielas_axi_cli_axi:1.0.0")
   }
 }
