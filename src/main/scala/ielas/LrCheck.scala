@@ -28,7 +28,7 @@ import chisel3.util._
   * N + W + [[LrCheck.cycleSlack]] cycles. When a frame follows a more than twice as wide one, its first rows fill
   * the two free slots before the wide last row has left, so the input waits once, for at most the wide width plus cycleSlack
   * ([[LrCheck.narrowingSlack]]); a 4th slot would not remove that, only a buffer addressed by pixel instead of by row.
-  * Back-pressure: the output register stalls the whole pipeline (memory reads are re-issued at the held addresses,
+  * Back-pressure: the output register (draining into a 2-entry queue) stalls the whole pipeline (memory reads are re-issued at the held addresses,
   * which is safe because a slot is never written while any of its pixels is in the pipeline); the input stalls only
   * when all three slots are occupied. A row longer than maxWidth keeps its first maxWidth - 1 pixels and its last
   * one (the top's frame guard never lets such a row through).
@@ -73,7 +73,10 @@ class LrCheck(p: ElasParams) extends Module {
   // ---- pipeline registers ----
   val outValid = RegInit(false.B)
   val outBits = Reg(new Framed(new DisparityPair(p)))
-  val advance = !outValid || io.out.ready
+  // The output register drains into a 2-entry queue whose ready is a register, so io.out.ready reaches no memory
+  // address (the pipeline's stall logic stays a couple of LUTs deep).
+  val outQueue = Module(new Queue(new Framed(new DisparityPair(p)), 2))
+  val advance = !outValid || outQueue.io.enq.ready
 
   // s0: the next pixel to issue
   val pSlot = RegInit(0.U(2.W))
@@ -162,7 +165,7 @@ class LrCheck(p: ElasParams) extends Module {
   val keepL = s3.inL && consistent(s3.dL, s3.otherR)
   val keepR = s3.inR && consistent(s3.dR, s3.otherL)
 
-  when(io.out.fire) { outValid := false.B }
+  when(outQueue.io.enq.fire) { outValid := false.B }
   when(advance) {
     // output register
     outValid := s3Valid
@@ -228,8 +231,9 @@ class LrCheck(p: ElasParams) extends Module {
     }
   }
 
-  io.out.valid := outValid
-  io.out.bits := outBits
+  outQueue.io.enq.valid := outValid
+  outQueue.io.enq.bits := outBits
+  io.out <> outQueue.io.deq
 }
 
 object LrCheck {
@@ -239,8 +243,10 @@ object LrCheck {
   /** Rows of latency: the throughput bound is N + latencyRows * W + cycleSlack cycles for N input pixels. */
   val latencyRows: Int = 1
 
-  /** Cycles beyond one row: the slot flags, the two memory reads, their two data registers and the output register. */
-  val cycleSlack: Int = 6
+  /** Cycles beyond one row: the slot flags, the two memory reads, their two data registers, the output register and
+    * the output queue.
+    */
+  val cycleSlack: Int = 7
 
   /** Extra input wait, once, when a frame of width `narrow` follows one of width `wide`: rows narrower than half
     * the previous row fill the other two slots before the wide row has left the pipeline. Bounded by `wide`.
