@@ -51,7 +51,7 @@ import chisel3.util._
   * rows. Frames may follow each other back to back in all three streams; row banks are tagged with a frame parity
   * so the next frame's rows can load while the current frame ends.
   *
-  * Pipeline (lockstep, stalls as a whole): A (window shift, owner, plane and grid reads) -> B -> B1 (texture SAD,
+  * Pipeline (lockstep, stalls as a whole): A (window shift, cover tests, grid read) -> A1..A3 (owner) -> B -> B1 (texture SAD,
   * plane offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi, candidates, ring reads; one
   * cycle per candidate group) -> D (ring data) -> D2 (SADs) -> E (cost with the prior) -> F -> the first-minimum tree, two compare
   * levels per register ([[DenseMatcher.treeRegisters]]) -> output register. Each register step is a few LUTs deep
@@ -366,7 +366,8 @@ class DenseMatcher(p: ElasParams) extends Module {
 
   // ---------------------------------------------------------------- stage A
   // Stage A decides what needs the window and the frame registers (the cover tests, the left owner's two products,
-  // the pixel's flags); A1 and A2 find the owner (priority encoder, then the carried owner), B reads the planes.
+  // the pixel's flags); A1..A3 find the owner (the highest cover per block of 8, then over the blocks, then the
+  // carried owner), B reads the planes.
   val window = Reg(Vec(K, new Span))
   val aH = a.h
   val aUp = (a.h - a.vIn)(inW - 1, 0)
@@ -457,11 +458,24 @@ class DenseMatcher(p: ElasParams) extends Module {
     }).asUInt
     a1.base2 := ((a.cu - 1.U) << 1)(cellW, 0)
   }
+  /** The highest set entry of `xs` (a power of two of (any, index) pairs with equal index widths) as a balanced
+    * tree of 2:1 muxes: log2 levels instead of the linear chain a priority mux becomes.
+    */
+  def highest(xs: Seq[(Bool, UInt)]): (Bool, UInt) =
+    if (xs.length == 1) xs.head
+    else {
+      val (lo, hi) = xs.splitAt(xs.length / 2)
+      val (anyLo, idxLo) = highest(lo)
+      val (anyHi, idxHi) = highest(hi)
+      (anyLo || anyHi, Mux(anyHi, Cat(1.U(1.W), idxHi), Cat(0.U(1.W), idxLo)))
+    }
+  private val coverBlocks = 1 << log2Ceil((2 * K + 7) / 8) // blocks of 8 cover bits, padded to a power of two
   class StageA2 extends Bundle {
     val px = new Pixel
     val leftOwner = UInt((cellW + 1).W)
-    val covered = Bool()
-    val coverOwner = UInt((cellW + 1).W) // the highest-indexed covering triangle, cell * 2 + t
+    val base2 = UInt((cellW + 1).W)
+    val blockAny = Vec(coverBlocks, Bool()) //   a block of 8 cover bits has a covering triangle
+    val blockTop = Vec(coverBlocks, UInt(3.W)) // its highest one
   }
   val a2Valid = RegInit(false.B)
   val a2 = Reg(new StageA2)
@@ -469,13 +483,36 @@ class DenseMatcher(p: ElasParams) extends Module {
     a2Valid := a1Valid
     a2.px := a1.px
     a2.leftOwner := Cat(a1.cu, a1.uInH >= a1.w1Up)(cellW, 0)
-    a2.covered := a1.covers.orR
-    a2.coverOwner := (a1.base2 + ((2 * K - 1).U - PriorityEncoder(Reverse(a1.covers))))(cellW, 0)
+    a2.base2 := a1.base2
+    for (k <- 0 until coverBlocks) {
+      val bits = (0 until 8).map(i => if (8 * k + i < 2 * K) a1.covers(8 * k + i) else false.B)
+      val (any, top) = highest(bits.grouped(2).map(pair => (pair(0) || pair(1), pair(1).asUInt)).toSeq)
+      a2.blockAny(k) := any
+      a2.blockTop(k) := top
+    }
+  }
+  class StageA3 extends Bundle {
+    val px = new Pixel
+    val leftOwner = UInt((cellW + 1).W)
+    val base2 = UInt((cellW + 1).W)
+    val covered = Bool()
+    val top = UInt((log2Ceil(coverBlocks) + 3).W) // the highest covering triangle's window index j * 2 + t
+  }
+  val a3Valid = RegInit(false.B)
+  val a3 = Reg(new StageA3)
+  when(upAdv) {
+    a3Valid := a2Valid
+    a3.px := a2.px
+    a3.leftOwner := a2.leftOwner
+    a3.base2 := a2.base2
+    val (any, top) = highest(a2.blockAny.zip(a2.blockTop))
+    a3.covered := any
+    a3.top := top
   }
   // Right view: the highest-indexed covering triangle in the window, else the owner of the last covered pixel.
   val carry = Reg(UInt((cellW + 1).W))
-  val rightOwner = Mux(a2.covered, a2.coverOwner, Mux(a2.px.first, a2.px.fallback, carry))
-  when(upAdv && a2Valid) { carry := rightOwner }
+  val rightOwner = Mux(a3.covered, (a3.base2 + a3.top)(cellW, 0), Mux(a3.px.first, a3.px.fallback, carry))
+  when(upAdv && a3Valid) { carry := rightOwner }
 
   class StageB extends Bundle {
     val px = new Pixel
@@ -484,9 +521,9 @@ class DenseMatcher(p: ElasParams) extends Module {
   val bValid = RegInit(false.B)
   val b = Reg(new StageB)
   when(upAdv) {
-    bValid := a2Valid
-    b.px := a2.px
-    b.owner(0) := a2.leftOwner
+    bValid := a3Valid
+    b.px := a3.px
+    b.owner(0) := a3.leftOwner
     b.owner(1) := rightOwner
   }
   // the left view's targets: descR of the pixels that have passed stage B
@@ -795,8 +832,8 @@ class DenseMatcher(p: ElasParams) extends Module {
 }
 
 object DenseMatcher {
-  /** Per-pixel registers added for timing: A1, A2 (the owner) and B1..B3 (the plane value). */
-  val ownerStages: Int = 2
+  /** Per-pixel registers added for timing: A1..A3 (the owner) and B1..B3 (the plane value). */
+  val ownerStages: Int = 3
   val planeStages: Int = 3
 
   /** Ring depth: a power of two of at least dispMax + 4 + ownerStages + planeStages entries, the pixels in flight
