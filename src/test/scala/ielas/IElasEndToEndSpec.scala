@@ -39,14 +39,16 @@ object IElasEndToEndSpec {
   case class OutBeat(value: Int, sof: Boolean, eol: Boolean, eof: Boolean)
 
   /** Streams `frames` back to back (frameWidth/frameHeight set with each start of frame) and returns the cycles and
-    * the output split into frames at each start of frame. Stops after `expectedOutputs` beats, or when `stopWhen`.
+    * the output split into frames at each start of frame. Stops after `expectedOutputs` beats, or when `stopWhen`
+    * (given the output so far and the number of input beats offered so far).
     */
   def stream(dut: IElas, frames: Seq[Frame], traffic: Traffic, rnd: Random, maxCycles: Long, what: String,
-      expectedOutputs: Long, stopWhen: Seq[Seq[OutBeat]] => Boolean = _ => false): (Long, Seq[Seq[OutBeat]]) = {
+      expectedOutputs: Long, stopWhen: (Seq[Seq[OutBeat]], Long) => Boolean = (_, _) => false): (Long, Seq[Seq[OutBeat]]) = {
     poke(dut.io.clearError, false)
+    var taken = 0L
     val beats = frames.iterator.flatMap { f =>
       Iterator.range(0, f.width * f.rows).map(i => (f, i))
-    }
+    }.map { b => taken += 1; b }
     val out = ArrayBuffer.empty[ArrayBuffer[OutBeat]]
     def outFrames: Seq[Seq[OutBeat]] = out.map(_.toSeq).toSeq
     val cycles = run[PixelPair, Framed[chisel3.SInt], (Frame, Int), OutBeat](dut.clock, dut.io.in, beats,
@@ -59,7 +61,7 @@ object IElasEndToEndSpec {
       dut.io.out, expectedOutputs,
       o => OutBeat(peek(o.data).toInt, peek(o.sof), peek(o.eol), peek(o.eof)),
       (_, beat) => { if (beat.sof || out.isEmpty) out += ArrayBuffer.empty[OutBeat]; out.last += beat },
-      traffic, rnd, maxCycles, what, stopWhen = () => stopWhen(outFrames))
+      traffic, rnd, maxCycles, what, stopWhen = () => stopWhen(outFrames, taken))
     (cycles, outFrames)
   }
 
@@ -194,7 +196,7 @@ object IElasEndToEndSpec {
       val padExp = golden(p, Frame("padded", padded(t.left), padded(t.right)), tmp.resolve("golden-padded"))
       val good = all.head
       val (_, trunc) = stream(dut, Seq(t, good), Traffic(0.1, 0.1), rnd, choppyBound(Seq(t, good), p), "truncated frame",
-        Long.MaxValue, outs => outs.nonEmpty && outs.last.lastOption.exists(_.eof))
+        Long.MaxValue, (outs, _) => outs.nonEmpty && outs.last.lastOption.exists(_.eof))
       assert(peek(dut.io.error), "truncated frame: error not raised")
       poke(dut.io.clearError, true); step(dut.clock); poke(dut.io.clearError, false)
       assert(!peek(dut.io.error), "clearError did not clear the error")

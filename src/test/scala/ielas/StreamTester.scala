@@ -4,10 +4,11 @@ import chisel3._
 import chisel3.util.DecoupledIO
 import chiseltest._
 import chiseltest.internal.CachingAnnotation
-import chiseltest.simulator.{VerilatorBackendAnnotation, WriteVcdAnnotation}
+import chiseltest.simulator.{VerilatorBackendAnnotation, VerilatorFlags, WriteVcdAnnotation}
+import chisel3.reflect.DataMirror
 import firrtl2.options.TargetDirAnnotation
 
-import java.nio.file.{Path, Paths}
+import java.nio.file.{Files, Path, Paths}
 import scala.util.Random
 
 /** The one stream-driving helper of every stage test and simulation program. All simulator-specific code
@@ -36,16 +37,88 @@ object StreamTester {
   def vcd: Boolean = sys.props.get("ielas.vcd").orElse(sys.env.get("IELAS_VCD")).contains("1")
 
   /** Elaborates `gen`, builds it with Verilator into `workDir` and runs `body` on it. With `cache`, an identical
-    * circuit reuses the Verilator build already in `workDir`.
+    * circuit reuses the Verilator build already in `workDir`. With `randomInit = Some(seed)` the model starts from a
+    * random power-up state (see [[RandomInit]]); the body then runs before any reset, so it must reset the module.
     */
-  def simulate[M <: Module](gen: => M, workDir: Path, cache: Boolean = false)(body: M => Unit): Unit = {
+  def simulate[M <: Module](gen: => M, workDir: Path, cache: Boolean = false, randomInit: Option[Long] = None)(
+      body: M => Unit): Unit = {
     val relative = Paths.get("").toAbsolutePath.relativize(workDir.toAbsolutePath) // chiseltest wants it relative
     val annos = Seq(VerilatorBackendAnnotation, TargetDirAnnotation(relative.toString)) ++
-      (if (vcd) Seq(WriteVcdAnnotation) else Nil) ++ (if (cache) Seq(CachingAnnotation) else Nil)
+      (if (vcd) Seq(WriteVcdAnnotation) else Nil) ++ (if (cache) Seq(CachingAnnotation) else Nil) ++
+      randomInit.map(s => RandomInit.prepare(workDir, s)).getOrElse(Nil)
     RawTester.test(gen, annos, workDir.getFileName.toString) { dut =>
       dut.clock.setTimeout(0) // the cycle bound below replaces chiseltest's idle timeout
+      if (randomInit.nonEmpty) RandomInit.unpinInputs(dut)
       body(dut)
     }
+  }
+
+  /** Verilator's random power-up state for [[simulate]]: every register, memory and input starts from values drawn
+    * from a seed (`--x-assign unique --x-initial unique`, `Verilated::randReset(2)`).
+    *
+    * chiseltest builds the model before it hands plusargs over, so `+verilator+seed` comes too late: a C++ hook linked
+    * into the model sets the seed in a static initialiser, which runs when chiseltest loads the library, before the
+    * model is constructed. The hook reads the seed from a file in the work directory (so one cached build serves every
+    * seed; chiseltest loads a fresh copy of the library for each run) and writes back what it applied, which
+    * [[applied]] reads as proof.
+    */
+  object RandomInit {
+    def seedFile(workDir: Path): Path = workDir.toAbsolutePath.resolve("random-init-seed")
+    def appliedFile(workDir: Path): Path = workDir.toAbsolutePath.resolve("random-init-applied")
+
+    /** Writes the hook and the seed; returns the Verilator annotations. */
+    def prepare(workDir: Path, seed: Long): Seq[firrtl2.annotations.Annotation] = {
+      Files.createDirectories(workDir)
+      val hook = workDir.toAbsolutePath.resolve("random_init_hook.cpp")
+      val text =
+        s"""// Written by StreamTester.RandomInit: random power-up state from a seed read at load time.
+           |#include <verilated.h>
+           |#include <cstdio>
+           |#include <cstdlib>
+           |namespace {
+           |struct RandomInitHook {
+           |  RandomInitHook() {
+           |    long long seed = 0;
+           |    FILE* f = std::fopen("${seedFile(workDir)}", "r");
+           |    if (!f || std::fscanf(f, "%lld", &seed) != 1) { std::fprintf(stderr, "random init: no seed\\n"); std::abort(); }
+           |    std::fclose(f);
+           |    // Verilator's seed is an int and 0 means "from the clock": fold the 64-bit seed into 1..2^31-1.
+           |    int s = (int)((((unsigned long long)seed) ^ (((unsigned long long)seed) >> 31)) % 2147483646ULL) + 1;
+           |    Verilated::randReset(2);
+           |    Verilated::randSeed(s);
+           |    FILE* a = std::fopen("${appliedFile(workDir)}", "w");
+           |    if (a) { std::fprintf(a, "%lld %d %d\\n", seed, Verilated::randReset(), Verilated::randSeed()); std::fclose(a); }
+           |  }
+           |} hook;
+           |}
+           |""".stripMargin
+      Files.write(hook, text.getBytes)
+      Files.write(seedFile(workDir), s"$seed\n".getBytes)
+      Files.deleteIfExists(appliedFile(workDir))
+      Seq(VerilatorFlags(Seq("--x-assign", "unique", "--x-initial", "unique", hook.toString)))
+    }
+
+    /** What the hook applied in this run: (seed, randReset, Verilator seed); None when it did not run. */
+    def applied(workDir: Path): Option[(Long, Int, Int)] = {
+      val f = appliedFile(workDir)
+      if (!Files.exists(f)) None
+      else new String(Files.readAllBytes(f)).trim.split(" ") match {
+        case Array(a, b, c) => Some((a.toLong, b.toInt, c.toInt))
+        case _ => None
+      }
+    }
+
+    /** chiseltest assumes every input starts at 0 and drops a first poke of 0, which would leave an input at its
+      * random value: poke each input (reset included) to another value and back to 0.
+      */
+    def unpinInputs(dut: Module): Unit =
+      for ((_, port) <- DataMirror.modulePorts(dut); leaf <- DataMirror.collectLeafMembers(port)
+           if DataMirror.directionOf(leaf) == ActualDirection.Input && leaf.getWidth > 0) leaf match {
+        case b: Bool => b.poke(true.B); b.poke(false.B)
+        case u: UInt => u.poke(1.U); u.poke(0.U)
+        case s: SInt => s.poke(-1.S); s.poke(0.S)
+        case _ => // clock
+      }
   }
 
   /** Plain port access for single signals (reset, configuration inputs, status outputs). */
