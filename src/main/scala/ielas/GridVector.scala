@@ -31,8 +31,9 @@ import chisel3.util._
   * previous cycle is forwarded. Emission: per column, the three rows' words are read one after another through the
   * same read port (marks have priority) and ORed (vertical dilation); a cell ORs three such columns (horizontal)
   * and a priority encoder takes `lanes` lowest set bits per cycle (lowest bit = m & -m, an adder carry chain and an
-  * OR-tree encoder). A cell takes max(ceil(storedDisparities / lanes), 4) + 1 cycles without read-port contention
-  * ([[GridVector.cellCycles]]; 21 at storedDisparities 20 with 1 lane), far below the gridSize^2 pixel clocks of
+  * OR-tree encoder). A cell takes max(ceil(storedDisparities / lanes) + 1, 4) + 1 cycles without read-port
+  * contention (the + 1: a cell's end is decided on the registered mask, which keeps the encoder and the 256-bit
+  * zero test in separate cycles; [[GridVector.cellCycles]]; 22 at storedDisparities 20 with 1 lane), far below the gridSize^2 pixel clocks of
   * one cell at 1 pixel per clock (400 at gridSize 20). Exception: at gridSize 2 a cell has only 4 pixel clocks and
   * the stage back-pressures (about 1.3x the pixel time); gridSize >= 3 keeps up.
   */
@@ -102,13 +103,17 @@ class GridVector(p: ElasParams) extends Module {
     emitRow := 0.U; markedRow := 0.U; markedAll := false.B
     nodeV := v // the start beat is node (0, 0) and no row ends on it (Lw >= 2)
   }
+  // The next positions from the start beat and from the registers are computed side by side, so the start
+  // decision (input valid, sof, busy flags) only selects between them.
+  def nextPos(at: Position, limit: UInt, startLimit: UInt, gen: Position): Position =
+    Mux(start, advance(origin(gen), startLimit), advance(at, limit))
   when(accept) {
     when(io.in.bits.eol) {
       nodeU := origin(new Position(p.colBits))
-      nodeV := advance(v, h)
+      nodeV := nextPos(nodeV, height, io.frameHeight, new Position(p.rowBits))
       when(io.in.bits.eof) { inBusy := false.B }
     }.otherwise {
-      nodeU := advance(u, w)
+      nodeU := nextPos(nodeU, width, io.frameWidth, new Position(p.colBits))
     }
   }
 
@@ -240,8 +245,8 @@ class GridVector(p: ElasParams) extends Module {
     state := sExtract
   }
 
-  /** Takes up to `lanes` lowest set bits of `mask` into res(cnt..); returns whether the cell is complete after it. */
-  def extract(mask: UInt, cnt: UInt, res: Vec[SInt]): Bool = {
+  /** Takes up to `lanes` lowest set bits of `mask` into res(cnt..). */
+  def extract(mask: UInt, cnt: UInt, res: Vec[SInt]): Unit = {
     var m = mask
     var c = cnt
     for (_ <- 0 until lanes) {
@@ -254,7 +259,6 @@ class GridVector(p: ElasParams) extends Module {
     }
     mask := m
     cnt := c
-    m === 0.U || c === sd.U
   }
 
   val rowReady = markedAll || markedRow >= emitRow +& 2.U
@@ -275,9 +279,10 @@ class GridVector(p: ElasParams) extends Module {
       }
     }
     is(sExtract) {
-      val doneL = extract(maskL, cntL, resL)
-      val doneR = extract(maskR, cntR, resR)
-      when(doneL && doneR) { state := sEmit }
+      // done is decided on the registers (one cycle after the last take), not on the extraction's result
+      def done(mask: UInt, cnt: UInt): Bool = mask === 0.U || cnt === sd.U
+      when(done(maskL, cntL) && done(maskR, cntR)) { state := sEmit }
+        .otherwise { extract(maskL, cntL, resL); extract(maskR, cntR, resR) }
     }
     is(sEmit) {
       when(outFree && fDone) {
@@ -329,7 +334,7 @@ object GridVector {
     * then the output transfer. Within the gridSize^2 pixel clocks of a cell for gridSize >= 3; at gridSize 2 (4
     * pixel clocks per cell) the stage cannot keep up with 1 pixel per clock and back-pressures.
     */
-  def cellCycles(p: ElasParams, lanes: Int): Int = math.max((p.storedDisparities + lanes - 1) / lanes, 4) + 1
+  def cellCycles(p: ElasParams, lanes: Int): Int = math.max((p.storedDisparities + lanes - 1) / lanes + 1, 4) + 1
   def cellCycles(p: ElasParams): Int = cellCycles(p, lanes(p))
 
   /** Cycles to emit one grid row of `w` pixels: two column fetches to prime, then every cell. */
