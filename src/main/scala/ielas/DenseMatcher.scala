@@ -53,7 +53,7 @@ import chisel3.util._
   *
   * Pipeline (lockstep, stalls as a whole): A (window shift, cover tests, grid read) -> A1..A3 (owner) -> B -> B1 (texture SAD,
   * plane offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi, candidates, ring reads; one
-  * cycle per candidate group) -> D (ring data) -> D2 (SADs) -> E (cost with the prior) -> F -> the first-minimum tree, two compare
+  * cycle per candidate group) -> D (ring data) -> D2 (two half-descriptor SADs per lane) -> E (cost with the prior) -> F -> the first-minimum tree, two compare
   * levels per register ([[DenseMatcher.treeRegisters]]) -> output register. Each register step is a few LUTs deep
   * (docs/timing.md).
   */
@@ -736,7 +736,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
   class Sad extends Bundle {
     val valid = Bool()
-    val sad = UInt(DescriptorSad.bits(p.descriptorBytes).W)
+    val halves = Vec(2, UInt(DescriptorSad.bits(p.descriptorBytes).W)) // SADs of the descriptor's two halves
     val d = UInt(p.dispBits.W)
     val prior = SInt(costW.W)
   }
@@ -757,7 +757,18 @@ class DenseMatcher(p: ElasParams) extends Module {
     d2 := dReg
     for (view <- 0 until 2; k <- 0 until lanes) d2Targets(view)(k) := targets(view)(k)
   }
-  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => sad(d2.refs(view), d2Targets(view)(k))))
+  // Each lane's SAD as two half-descriptor SADs (a 16-byte adder tree is one LUT level too deep), summed in E -> F.
+  private val lowBytes = p.descriptorBytes / 2
+  def halfSads(x: UInt, y: UInt): Seq[UInt] = {
+    def unit(lo: Int, bytes: Int): UInt = {
+      val u = Module(new DescriptorSad(bytes))
+      u.io.x := x(8 * (lo + bytes) - 1, 8 * lo)
+      u.io.y := y(8 * (lo + bytes) - 1, 8 * lo)
+      u.io.sad
+    }
+    Seq(unit(0, lowBytes), unit(lowBytes, p.descriptorBytes - lowBytes))
+  }
+  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => halfSads(d2.refs(view), d2Targets(view)(k))))
   when(adv) {
     eValid := d2Valid
     eTail := tailOf(d2)
@@ -766,7 +777,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       eSad(view)(k).valid := x.valid
       eSad(view)(k).d := x.d
       eSad(view)(k).prior := x.prior
-      eSad(view)(k).sad := laneSad(view)(k)
+      for (h <- 0 until 2) eSad(view)(k).halves(h) := laneSad(view)(k)(h)
     }
   }
   val fValid = RegInit(false.B)
@@ -779,7 +790,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       val x = eSad(view)(k)
       fCand(view)(k).valid := x.valid
       fCand(view)(k).d := x.d
-      fCand(view)(k).cost := x.sad.zext + x.prior
+      fCand(view)(k).cost := (x.halves(0) +& x.halves(1)).zext + x.prior
     }
   }
 
