@@ -164,68 +164,75 @@ class SupportMatcher(p: ElasParams) extends Module {
   }
 
   // ---- walker: every lattice node in raster order ----
-  val sIdle :: sNode :: sRefHi :: sSweep :: sDecide :: Nil = Enum(5)
+  val sIdle :: sNode :: sSweep :: sWait :: Nil = Enum(4)
   val state = RegInit(sIdle)
   val phaseLeft = RegInit(true.B) // sweeping with the left view as reference
   val uRef = RegInit(0.U(p.colBits.W)) // reference column of the current sweep
-  val dLeft = RegInit(0.U(p.dispBits.W))
+  val refC0 = RegInit(0.U(colW.W)) //     uRef - r: the reference window's first column
 
   val rowActive = walkV >= margin.U && walkV +& margin.U < height
   val nodeActive = rowActive && walkU >= margin.U && walkU +& margin.U < width
   val rowReady = !rowActive || bottomRow.v > walkV // both descriptor rows of this lattice row are in
+  // per frame: the last column t - r (maxC1) a right sweep may reach, W - 1 - margin - r (width is held all frame)
+  val rightLimit = RegNext(width - (1 + margin + r).U)
 
-  // ---- block reads: word j of every bank is the aligned block of columns jL .. jL + L - 1, lane k = bank k ----
+  // ---- reads: word j of every bank is the aligned block of columns jL .. jL + L - 1, lane k = bank k ----
   val blockW = log2Ceil(wordsPerRow + 1)
   def blockOf(col: UInt): UInt = (col >> bankBits)(blockW - 1, 0)
-  val j = RegInit(0.U(blockW.W)) //   block the sweep reads this cycle (the sweep runs from jHi down to jLo)
+  val j = RegInit(0.U(blockW.W)) //   block the sweep reads this cycle (the sweep runs from j down to jLo)
   val jLo = RegInit(0.U(blockW.W))
-  val sweepStart = RegInit(false.B) // the sweep's first block (its s1 result starts the running best)
-  val minC1 = RegInit(0.U(colW.W)) // target columns t - r of the sweep's disparities: minC1 .. minC1 + dhi
+  val sweepStart = RegInit(false.B) // the sweep's first block (its result starts the running best)
+  val minC1 = RegInit(0.U(colW.W)) // target columns t - r of the sweep's disparities: minC1 .. maxC1
   val maxC1 = RegInit(0.U(colW.W))
-  val dRight = Wire(UInt(p.dispBits.W)) // the left sweep's decision, which sets the right sweep's reference column
-  val uRight = uRef - dRight
-  // One read per bank and cycle: the reference view's block of uRef - r in the cycle before a sweep (sNode, or
-  // sDecide before the right sweep), its block of uRef + r (sRefHi, skipped when it is the same block), then the
-  // target view's blocks j.
-  val refLoWord = Mux(state === sNode, blockOf(walkU - r.U), blockOf(uRight - r.U))
-  val readView = Mux(state === sNode || state === sRefHi, !phaseLeft && state === sRefHi,
-    Mux(state === sSweep, phaseLeft, true.B)) // sDecide: the right view's reference (only used after the left sweep)
-  val readWord = Mux(state === sSweep, j, Mux(state === sRefHi, blockOf(uRef + r.U), refLoWord))
-  val data = (0 until 2).map(kind => (0 until banks).map(b => rowMem(kind)(b).read(rowAddress(readView, walkSlot, readWord))))
+  // One read per bank and cycle. A reference read fetches the L consecutive columns from c0 = u - r on (banks below
+  // c0 mod L read the next word), so u - r and u + r (2r < L) arrive together; a sweep reads the aligned block j.
+  val readView = WireDefault(phaseLeft) // sweep: the target view (the right one for the left sweep)
+  val readWord = WireDefault(j)
+  val readSplit = WireDefault(0.U(bankBits.W))
+  val loRead = RegInit(false.B) // the data of this cycle is a reference read
+  loRead := false.B
+  def readReference(view: Bool, c0: UInt): Unit = {
+    readView := view
+    readWord := blockOf(c0)
+    readSplit := c0(bankBits - 1, 0)
+    refC0 := c0
+    loRead := true.B
+  }
+  val data = (0 until 2).map(kind => (0 until banks).map { b =>
+    val word = readWord +& (b.U < readSplit).asUInt
+    rowMem(kind)(b).read(rowAddress(readView, walkSlot, word(blockW - 1, 0)))
+  })
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
-  // ---- the sweep's reference descriptors (columns uRef - r and uRef + r), kept in registers ----
+  // ---- the sweep's reference descriptors (columns c0 and c0 + 2r of the reference read), kept in registers ----
   def column(data: Seq[UInt], col: UInt): UInt = Mux1H(data.indices.map(b => col(bankBits - 1, 0) === b.U), data)
-  val loRead = RegInit(false.B) // the data of this cycle holds column uRef - r (and uRef + r when hiRead)
-  val hiRead = RegInit(false.B)
-  loRead := false.B
-  hiRead := state === sRefHi
   val refLo = Reg(Vec(2, UInt(descBits.W)))
   val refHi = Reg(Vec(2, UInt(descBits.W)))
-  when(loRead) { for (kind <- 0 until 2) refLo(kind) := column(data(kind), uRef - r.U) }
-  when(hiRead) { for (kind <- 0 until 2) refHi(kind) := column(data(kind), uRef + r.U) }
-  /** Starts a sweep with reference column u: its reference reads are under way (one more cycle when u ± r lie in
-    * two blocks).
-    */
-  def startSweep(u: UInt): Unit = {
-    val oneBlock = blockOf(u - r.U) === blockOf(u + r.U)
-    loRead := true.B
-    hiRead := oneBlock
-    sweepStart := true.B
-    state := Mux(oneBlock, sSweep, sRefHi)
+  when(loRead) {
+    for (kind <- 0 until 2) {
+      refLo(kind) := column(data(kind), refC0)
+      refHi(kind) := column(data(kind), refC0 + (2 * r).U)
+    }
   }
-  val tgtView = data
 
-  // ---- s1: costs of the block read last cycle, merged into the running best / second best ----
-  val issue = state === sSweep
-  val s1Valid = RegNext(issue, false.B)
-  val s1Left = RegNext(phaseLeft)
-  val s1Block = RegNext(j)
-  val s1MinC1 = RegNext(minC1)
-  val s1MaxC1 = RegNext(maxC1)
-  val s1First = RegNext(sweepStart)
-  // columns 0 .. 2r - 1 of the block read the cycle before (block j + 1): the partners of the top 2r lanes
-  val prevBlock = tgtView.map(cols => RegNext(VecInit(cols.take(2 * r).toSeq)))
+  // ---- search pipeline: issue (read) -> A: SADs -> B: lane costs, first merge levels -> C: block best ->
+  // merge into the running best. A sweep's result is final 4 cycles after its last block is issued. ----
+  class Tag extends Bundle {
+    val left = Bool() //  the block belongs to a left sweep
+    val first = Bool() // the sweep's first block
+    val last = Bool() //  the sweep's last block
+  }
+  val hold = WireDefault(false.B) // the right sweep's last block waits for the previous node's decision
+  val issue = state === sSweep && !hold
+  val tag = Wire(new Tag)
+  tag.left := phaseLeft; tag.first := sweepStart; tag.last := j === jLo
+  val s0Valid = RegNext(issue, false.B)
+  val s0Tag = RegNext(tag)
+  val s0Block = RegNext(j)
+  val s0MinC1 = RegNext(minC1)
+  val s0MaxC1 = RegNext(maxC1)
+  // columns 0 .. 2r - 1 of the block issued before (block j + 1): the partners of the top 2r lanes
+  val prevBlock = data.map(cols => RegEnable(VecInit(cols.take(2 * r).toSeq), s0Valid))
 
   class Best extends Bundle {
     val e1 = UInt(costBits.W)
@@ -235,37 +242,66 @@ class SupportMatcher(p: ElasParams) extends Module {
   def best(e1: UInt, d1: UInt, e2: UInt): Best = {
     val b = Wire(new Best); b.e1 := e1; b.d1 := d1; b.e2 := e2; b
   }
-  /** `a` covers smaller disparities than `b`: a strict "<" keeps a's d on ties, and a tie makes E2 = E1. */
-  def merge(a: Best, b: Best): Best = {
-    val bWins = b.e1 < a.e1
+  /** Merges two results; `bFirst` says b holds the smaller disparities: the smaller d wins a tie (first minimum), and a
+    * tie makes E2 = E1.
+    */
+  def merge(a: Best, b: Best, bFirst: Bool): Best = {
+    val bWins = Mux(bFirst, b.e1 <= a.e1, b.e1 < a.e1)
     best(Mux(bWins, b.e1, a.e1), Mux(bWins, b.d1, a.d1),
       Mux(bWins, SupportMatcher.min(a.e1, b.e2), SupportMatcher.min(a.e2, b.e1)))
   }
-  def tree(xs: Seq[Best]): Best = if (xs.length == 1) xs.head else {
-    val (lo, hi) = xs.splitAt(xs.length / 2)
-    merge(tree(lo), tree(hi))
-  }
+  /** One level of the lane tree: neighbours k, k + 1 (lane k + 1 holds the smaller d in a left sweep). */
+  def treeLevel(xs: Seq[Best], left: Bool): Seq[Best] = xs.grouped(2).map(g => merge(g(0), g(1), left)).toSeq
 
-  // lane k evaluates target column c1 = jL + k (and its partner c1 + 2r, in this block or the one above):
-  // left sweep d = maxC1 - c1 (the reference is u - r), right sweep d = c1 - minC1 (the reference is uRight - r)
-  val laneBest = (0 until lanes).map { k =>
-    val cost = (0 until 2).map { kind =>
-      val cur = tgtView(kind)
+  // A: the four SADs per lane (lane k: target column c1 = jL + k and its partner c1 + 2r, in this block or the one
+  // issued before), whether c1 is in the sweep and its d (left sweep d = maxC1 - c1, right d = c1 - minC1)
+  val aValid = RegNext(s0Valid, false.B)
+  val aTag = RegEnable(s0Tag, s0Valid)
+  val aSad = (0 until lanes).map { k =>
+    RegEnable(VecInit((0 until 2).flatMap { kind =>
+      val cur = data(kind)
       val partner = if (k + 2 * r < banks) cur(k + 2 * r) else prevBlock(kind)(k + 2 * r - banks)
-      sad(refLo(kind), cur(k)) +& sad(refHi(kind), partner)
-    }.reduce(_ +& _)
-    val c1 = Cat(s1Block, k.U(bankBits.W))
-    val inSweep = c1 >= s1MinC1 && c1 <= s1MaxC1
-    val d = Mux(s1Left, s1MaxC1 - c1, c1 - s1MinC1)(baseW - 1, 0)
-    best(Mux(inSweep, cost, costInf), d, costInf)
+      Seq(sad(refLo(kind), cur(k)), sad(refHi(kind), partner))
+    }), s0Valid)
   }
-  // ascending d: lanes in reverse order for the left sweep; each later block holds higher d (left) or lower (right)
-  val blockBest = tree(laneBest.indices.map(k => Mux(s1Left, laneBest(lanes - 1 - k), laneBest(k))))
+  val aLane = (0 until lanes).map { k =>
+    val c1 = Cat(s0Block, k.U(bankBits.W))
+    val inSweep = c1 >= s0MinC1 && c1 <= s0MaxC1
+    val d = Mux(s0Tag.left, s0MaxC1 - c1, c1 - s0MinC1)(baseW - 1, 0)
+    (RegEnable(inSweep, s0Valid), RegEnable(d, s0Valid))
+  }
+  // B: lane costs and the first levels of the lane tree (ascending lanes, ties to the smaller d)
+  private val treeLevels = log2Ceil(lanes)
+  private val levelsB = treeLevels / 2
+  val laneBest = aSad.zip(aLane).map { case (sads, (inSweep, d)) =>
+    best(Mux(inSweep, SupportMatcher.sumTree(sads), costInf), d, costInf)
+  }
+  val bValid = RegNext(aValid, false.B)
+  val bTag = RegEnable(aTag, aValid)
+  val bBest = (0 until levelsB).foldLeft(laneBest: Seq[Best])((xs, _) => treeLevel(xs, aTag.left)).map(RegEnable(_, aValid))
+  // C: the rest of the tree
+  val cValid = RegNext(bValid, false.B)
+  val cTag = RegEnable(bTag, bValid)
+  val blockBest = RegEnable((levelsB until treeLevels).foldLeft(bBest: Seq[Best])((xs, _) => treeLevel(xs, bTag.left)).head, bValid)
+  // merge: each later block holds higher d (left sweep) or lower d (right sweep)
   val running = Reg(new Best)
-  val merged = Mux(s1First, blockBest, Mux(s1Left, merge(running, blockBest), merge(blockBest, running)))
-  when(s1Valid) { running := merged }
-  val final_ = Mux(s1Valid, merged, running)
-  dRight := final_.d1(p.dispBits - 1, 0)
+  val merged = Mux(cTag.first, blockBest, merge(running, blockBest, !cTag.left))
+  when(cValid) { running := merged }
+  val leftDone = cValid && cTag.last && cTag.left //   this cycle's merged is the left sweep's result
+  val rightDone = cValid && cTag.last && !cTag.left // ... the right sweep's
+
+  // ---- the node whose right sweep is done waits here for its decision and the output register ----
+  val pendBusy = RegInit(false.B)
+  val pendStage = RegInit(0.U(2.W)) // 1: its right result is in, 2: the decision is in pendOk
+  val pendFlags = Reg(Vec(3, Bool())) // sof, eol, eof
+  val pendLeft = Reg(new Best) //  the left sweep's result
+  val pendRight = Reg(new Best)
+  val pendTexL = Reg(Bool())
+  val pendTexR = Reg(Bool())
+  val pendRangeOk = Reg(Bool()) // the right sweep's range reaches supportMinRange
+  val pendOk = Reg(Bool())
+  val curLeft = Reg(new Best) //   the current node's left result and texture bit
+  val curTexL = Reg(Bool())
 
   // ---- output register ----
   val outValid = RegInit(false.B)
@@ -275,27 +311,31 @@ class SupportMatcher(p: ElasParams) extends Module {
   io.out.valid := outValid
   io.out.bits := outBits
 
-  /** Emits the current node (when the output register is free) and moves to the next one. */
-  def emit(value: SInt): Unit = when(outFree) {
-    val eol = walkU === width - 1.U
-    val eof = eol && walkV === height - 1.U
+  val nodeEol = walkU === width - 1.U
+  val nodeEof = nodeEol && walkV === height - 1.U
+  val nodeSof = walkU === 0.U && walkV === 0.U
+  def output(value: SInt, sof: Bool, eol: Bool, eof: Bool): Unit = {
     outValid := true.B
     outBits.data := value
-    outBits.sof := walkU === 0.U && walkV === 0.U
+    outBits.sof := sof
     outBits.eol := eol
     outBits.eof := eof
+  }
+  /** Moves the walker to the next node. */
+  def advance(): Unit = {
     state := sNode
-    when(eol) {
+    when(nodeEol) {
       walkU := 0.U
       walkV := Mux(walkV +& step.U < height, walkV + step.U, height - 1.U)
       walkSlot := Mux(walkSlot === (slots - 1).U, 0.U, walkSlot + 1.U)
-      when(eof) { state := sIdle; walkBusy := false.B }
+      when(nodeEof) { state := sIdle; walkBusy := false.B }
     }.otherwise {
       walkU := Mux(walkU +& step.U < width, walkU + step.U, width - 1.U)
     }
   }
   val none = (-1).S((p.dispBits + 1).W)
   def dispMin(a: UInt): UInt = Mux(a > p.dispMax.U, p.dispMax.U, a)
+  def ratioOk(b: Best): Bool = (b.e1 * 100.U) < (b.e2 * p.supportThresholdPercent.U)
 
   switch(state) {
     is(sIdle) {
@@ -307,43 +347,78 @@ class SupportMatcher(p: ElasParams) extends Module {
     is(sNode) {
       val dhiL = dispMin(walkU - margin.U)
       when(!nodeActive || dhiL < p.supportMinRange.U) {
-        when(rowReady) { emit(none) }
+        // emitted here, after the previous node's decision
+        when(rowReady && outFree && !pendBusy) {
+          output(none, nodeSof, nodeEol, nodeEof)
+          advance()
+        }
       }.elsewhen(rowReady) {
         phaseLeft := true.B; uRef := walkU
-        startSweep(walkU)
+        readReference(false.B, walkU - r.U)
+        sweepStart := true.B
         minC1 := walkU - r.U - dhiL
         maxC1 := walkU - r.U
         j := blockOf(walkU + r.U)
         jLo := blockOf(walkU - r.U - dhiL)
+        state := sSweep
       }
     }
-    is(sRefHi) { state := sSweep }
     is(sSweep) {
-      sweepStart := false.B
-      j := j - 1.U
-      when(j === jLo) { state := sDecide }
-    }
-    is(sDecide) {
-      val texOk = Mux(phaseLeft, texBits(0), texBits(1))
-      val accept = texOk && (final_.e1 * 100.U) < (final_.e2 * p.supportThresholdPercent.U)
-      val d1 = final_.d1(p.dispBits - 1, 0)
-      when(phaseLeft) {
-        val dhiR = dispMin(width - (1 + margin).U - uRight)
-        when(!accept || dhiR < p.supportMinRange.U) {
-          emit(none)
-        }.otherwise {
-          dLeft := d1; uRef := uRight; phaseLeft := false.B
-          startSweep(uRight)
-          minC1 := uRight - r.U
-          maxC1 := uRight - r.U + dhiR
-          j := blockOf(uRight + r.U + dhiR)
-          jLo := blockOf(uRight - r.U)
+      when(issue) {
+        sweepStart := false.B
+        j := j - 1.U
+        when(j === jLo) {
+          when(phaseLeft) {
+            state := sWait
+          }.otherwise { // hand the node to the decision and go on with the next one
+            pendBusy := true.B
+            pendFlags := VecInit(nodeSof, nodeEol, nodeEof)
+            pendLeft := curLeft
+            pendTexL := curTexL
+            pendRangeOk := maxC1 - minC1 >= p.supportMinRange.U
+            advance()
+          }
         }
-      }.otherwise {
-        val diff = Mux(dLeft > d1, dLeft - d1, d1 - dLeft)
-        emit(Mux(accept && diff <= p.lrThreshold.U, dLeft.zext, none))
       }
     }
+    is(sWait) { // the left sweep's result is 4 cycles behind its last block
+      when(leftDone) {
+        // the right sweep (reference u' = u - d1) starts at once; a rejected left result is dropped at the decision
+        val d1 = merged.d1(p.dispBits - 1, 0)
+        val c0 = refC0 - d1 // u' - r
+        curLeft := merged
+        curTexL := texBits(0) // read at uRef = u
+        phaseLeft := false.B
+        uRef := uRef - d1
+        readReference(true.B, c0)
+        sweepStart := true.B
+        // dhiR = min(W - 1 - margin - u', dispMax): maxC1 = u' - r + dhiR
+        val top = c0 +& p.dispMax.U
+        val maxR = Mux(top > rightLimit, rightLimit, top)(colW - 1, 0)
+        minC1 := c0
+        maxC1 := maxR
+        j := blockOf(maxR + (2 * r).U)
+        jLo := blockOf(c0)
+        state := sSweep
+      }
+    }
+  }
+  // the last right block of the next node waits until this node's decision has left
+  when(state === sSweep && !phaseLeft && j === jLo && pendBusy) { hold := true.B }
+
+  // decision of the pending node: its right result, then the tests, then the output register
+  when(RegNext(state === sSweep && issue && !phaseLeft && j === jLo, false.B)) { pendTexR := texBits(1) } // at u'
+  when(rightDone) { pendRight := merged; pendStage := 1.U }
+  when(pendStage === 1.U) {
+    val diff = Mux(pendLeft.d1 > pendRight.d1, pendLeft.d1 - pendRight.d1, pendRight.d1 - pendLeft.d1)
+    pendOk := pendTexL && ratioOk(pendLeft) && pendRangeOk && pendTexR && ratioOk(pendRight) &&
+      diff <= p.lrThreshold.U
+    pendStage := 2.U
+  }
+  when(pendStage === 2.U && outFree) {
+    output(Mux(pendOk, pendLeft.d1(p.dispBits - 1, 0).zext, none), pendFlags(0), pendFlags(1), pendFlags(2))
+    pendBusy := false.B
+    pendStage := 0.U
   }
 }
 
