@@ -141,20 +141,23 @@ class SupportMatcher(p: ElasParams) extends Module {
 
   val capBank = capX(bankBits - 1, 0)
   val capWord = capX >> bankBits
-  // The left word is written with the pixel, the right word one cycle later: that bank's next write is `banks`
-  // columns away, and a kind's captured rows are step >= 2 pixel rows apart, so the two never meet.
+  // Writes are registered (the address logic stays off the memories' read paths): the left word is written one
+  // cycle after the pixel, the right word two. That bank's next write is `banks` columns away, and a kind's captured
+  // rows are step >= 2 pixel rows apart, so the two never meet; the sweeps never read the last r + 1 columns of a
+  // row, whose writes may still be under way when the walker finds the row complete.
+  val leftData = RegNext(io.in.bits.data.left)
+  val rightData = RegNext(RegNext(io.in.bits.data.right))
   for ((tracker, kind) <- Seq(topRow, bottomRow).zipWithIndex) {
     val hit = capture && tracker.hit
-    val rightPending = RegNext(hit, false.B)
-    val rightBank = RegNext(capBank)
-    val rightAddr = RegNext(rowAddress(1.U, tracker.slot, capWord))
-    val rightData = RegNext(io.in.bits.data.right)
-    val leftAddr = rowAddress(0.U, tracker.slot, capWord)
-    for (b <- 0 until banks) { // one write port per memory
-      val writeLeft = hit && capBank === b.U
-      when(writeLeft || rightPending && rightBank === b.U) {
-        rowMem(kind)(b).write(Mux(writeLeft, leftAddr, rightAddr), Mux(writeLeft, io.in.bits.data.left, rightData))
-      }
+    val leftPending = RegNext(hit, false.B)
+    val leftBank = RegNext(capBank)
+    val leftAddr = RegNext(rowAddress(0.U, tracker.slot, capWord))
+    for (b <- 0 until banks) { // one write port per memory, its address decided a cycle ahead
+      val nowLeft = hit && capBank === b.U
+      val writeLeft = RegNext(nowLeft, false.B)
+      val writeRight = RegNext(leftPending && leftBank === b.U, false.B)
+      val addr = RegNext(Mux(nowLeft, rowAddress(0.U, tracker.slot, capWord), leftAddr + viewWords.U))
+      when(writeLeft || writeRight) { rowMem(kind)(b).write(addr, Mux(writeLeft, leftData, rightData)) }
     }
   }
   when(capture && centreRow.hit) {
@@ -168,13 +171,21 @@ class SupportMatcher(p: ElasParams) extends Module {
   val state = RegInit(sIdle)
   val phaseLeft = RegInit(true.B) // sweeping with the left view as reference
   val uRef = RegInit(0.U(p.colBits.W)) // reference column of the current sweep
-  val refC0 = RegInit(0.U(colW.W)) //     uRef - r: the reference window's first column
+  // the left sweep's reference u: u - r, u - r + dispMax and u + r + dispMax (the right sweep's bounds are these - d1)
+  val refC0 = RegInit(0.U(colW.W))
+  val refTop = RegInit(0.U((colW + 1).W))
+  val refTop2 = RegInit(0.U((colW + 1).W))
 
   val rowActive = walkV >= margin.U && walkV +& margin.U < height
-  val nodeActive = rowActive && walkU >= margin.U && walkU +& margin.U < width
   val rowReady = !rowActive || bottomRow.v > walkV // both descriptor rows of this lattice row are in
-  // per frame: the last column t - r (maxC1) a right sweep may reach, W - 1 - margin - r (width is held all frame)
+  def dispMin(a: UInt): UInt = Mux(a > p.dispMax.U, p.dispMax.U, a)
+  def dhiLOf(u: UInt): UInt = dispMin(u - margin.U)
+  /** Node u of this lattice row is searched (else it holds no support): inside the margins, left range >= minimum. */
+  def searched(u: UInt): Bool = rowActive && u >= margin.U && u +& margin.U < width && dhiLOf(u) >= p.supportMinRange.U
+  val uNext = Mux(walkU +& step.U < width, walkU + step.U, width - 1.U) // the next node of this row (when not eol)
+  // per frame (width is held all frame): the last column t - r a right sweep may reach, W - 1 - margin - r, and + 2r
   val rightLimit = RegNext(width - (1 + margin + r).U)
+  val rightLimit2 = RegNext(width - (1 + margin - r).U)
 
   // ---- reads: word j of every bank is the aligned block of columns jL .. jL + L - 1, lane k = bank k ----
   val blockW = log2Ceil(wordsPerRow + 1)
@@ -189,34 +200,43 @@ class SupportMatcher(p: ElasParams) extends Module {
   val readView = WireDefault(phaseLeft) // sweep: the target view (the right one for the left sweep)
   val readWord = WireDefault(j)
   val readSplit = WireDefault(0.U(bankBits.W))
-  val loRead = RegInit(false.B) // the data of this cycle is a reference read
-  loRead := false.B
+  val readC0 = RegInit(0.U(colW.W)) // c0 of the reference read issued last cycle
+  val refRead = RegInit(false.B) //  the data of this cycle: the current sweep's references
+  val nextRead = RegInit(false.B) // ... the next node's left references (read while a left result is computed)
+  refRead := false.B
+  nextRead := false.B
+  def bankWord(c0: UInt, b: Int): UInt = (blockOf(c0) +& (b.U < c0(bankBits - 1, 0)).asUInt)(blockW - 1, 0)
   def readReference(view: Bool, c0: UInt): Unit = {
     readView := view
     readWord := blockOf(c0)
     readSplit := c0(bankBits - 1, 0)
-    refC0 := c0
-    loRead := true.B
+    readC0 := c0
   }
-  val data = (0 until 2).map(kind => (0 until banks).map { b =>
-    val word = readWord +& (b.U < readSplit).asUInt
-    rowMem(kind)(b).read(rowAddress(readView, walkSlot, word(blockW - 1, 0)))
-  })
+  val bankAddr = Wire(Vec(banks, UInt(log2Ceil(2 * viewWords).W)))
+  for (b <- 0 until banks) {
+    bankAddr(b) := rowAddress(readView, walkSlot, (readWord +& (b.U < readSplit).asUInt)(blockW - 1, 0))
+  }
+  val data = (0 until 2).map(kind => (0 until banks).map(b => rowMem(kind)(b).read(bankAddr(b))))
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
-  // ---- the sweep's reference descriptors (columns c0 and c0 + 2r of the reference read), kept in registers ----
+  // ---- reference descriptors (columns c0 and c0 + 2r of a reference read), kept in registers ----
   def column(data: Seq[UInt], col: UInt): UInt = Mux1H(data.indices.map(b => col(bankBits - 1, 0) === b.U), data)
   val refLo = Reg(Vec(2, UInt(descBits.W)))
   val refHi = Reg(Vec(2, UInt(descBits.W)))
-  when(loRead) {
-    for (kind <- 0 until 2) {
-      refLo(kind) := column(data(kind), refC0)
-      refHi(kind) := column(data(kind), refC0 + (2 * r).U)
-    }
+  val nextLo = Reg(Vec(2, UInt(descBits.W)))
+  val nextHi = Reg(Vec(2, UInt(descBits.W)))
+  val copyNext = RegInit(false.B) // the next node's sweep has started: its prefetched references take over
+  copyNext := false.B
+  for (kind <- 0 until 2) {
+    val lo = column(data(kind), readC0)
+    val hi = column(data(kind), readC0 + (2 * r).U)
+    when(refRead) { refLo(kind) := lo; refHi(kind) := hi }
+    when(nextRead) { nextLo(kind) := lo; nextHi(kind) := hi }
+    when(copyNext) { refLo(kind) := nextLo(kind); refHi(kind) := nextHi(kind) }
   }
 
-  // ---- search pipeline: issue (read) -> A: SADs -> B: lane costs, first merge levels -> C: block best ->
-  // merge into the running best. A sweep's result is final 4 cycles after its last block is issued. ----
+  // ---- search pipeline: issue (read) -> A: half SADs -> B: lane costs -> C, E: the lane tree -> merge into the
+  // running best. A sweep's result is final 5 cycles after its last block is issued. ----
   class Tag extends Bundle {
     val left = Bool() //  the block belongs to a left sweep
     val first = Bool() // the sweep's first block
@@ -242,26 +262,32 @@ class SupportMatcher(p: ElasParams) extends Module {
   def best(e1: UInt, d1: UInt, e2: UInt): Best = {
     val b = Wire(new Best); b.e1 := e1; b.d1 := d1; b.e2 := e2; b
   }
-  /** Merges two results; `bFirst` says b holds the smaller disparities: the smaller d wins a tie (first minimum), and a
-    * tie makes E2 = E1.
-    */
+  /** b's E1 wins over a's; `bFirst` says b holds the smaller disparities: the smaller d wins a tie (first minimum). */
+  def bWins(a: Best, b: Best, bFirst: Bool): Bool = Mux(bFirst, b.e1 <= a.e1, b.e1 < a.e1)
+  /** Merges two results (a tie makes E2 = E1). */
   def merge(a: Best, b: Best, bFirst: Bool): Best = {
-    val bWins = Mux(bFirst, b.e1 <= a.e1, b.e1 < a.e1)
-    best(Mux(bWins, b.e1, a.e1), Mux(bWins, b.d1, a.d1),
-      Mux(bWins, SupportMatcher.min(a.e1, b.e2), SupportMatcher.min(a.e2, b.e1)))
+    val w = bWins(a, b, bFirst)
+    best(Mux(w, b.e1, a.e1), Mux(w, b.d1, a.d1), Mux(w, SupportMatcher.min(a.e1, b.e2), SupportMatcher.min(a.e2, b.e1)))
   }
-  /** One level of the lane tree: neighbours k, k + 1 (lane k + 1 holds the smaller d in a left sweep). */
-  def treeLevel(xs: Seq[Best], left: Bool): Seq[Best] = xs.grouped(2).map(g => merge(g(0), g(1), left)).toSeq
+  /** Levels of the lane tree: neighbours merge (the higher lane holds the smaller d in a left sweep). */
+  def treeLevels(xs: Seq[Best], levels: Int, left: Bool): Seq[Best] =
+    (0 until levels).foldLeft(xs)((ys, _) => ys.grouped(2).map(g => merge(g(0), g(1), left)).toSeq)
 
-  // A: the four SADs per lane (lane k: target column c1 = jL + k and its partner c1 + 2r, in this block or the one
-  // issued before), whether c1 is in the sweep and its d (left sweep d = maxC1 - c1, right d = c1 - minC1)
+  // A: per lane (target column c1 = jL + k and its partner c1 + 2r, in this block or the one issued before) the four
+  // SADs, each as two half-descriptor SADs; whether c1 is in the sweep and its d (left d = maxC1 - c1, right c1 - minC1)
+  private val halfBytes = p.descriptorBytes / 2
+  require(2 * halfBytes == p.descriptorBytes)
+  private def halfSads(x: UInt, y: UInt): Seq[UInt] = {
+    val w = 8 * halfBytes
+    Seq(sad(x(w - 1, 0), y(w - 1, 0)), sad(x(2 * w - 1, w), y(2 * w - 1, w)))
+  }
   val aValid = RegNext(s0Valid, false.B)
   val aTag = RegEnable(s0Tag, s0Valid)
   val aSad = (0 until lanes).map { k =>
     RegEnable(VecInit((0 until 2).flatMap { kind =>
       val cur = data(kind)
       val partner = if (k + 2 * r < banks) cur(k + 2 * r) else prevBlock(kind)(k + 2 * r - banks)
-      Seq(sad(refLo(kind), cur(k)), sad(refHi(kind), partner))
+      halfSads(refLo(kind), cur(k)) ++ halfSads(refHi(kind), partner)
     }), s0Valid)
   }
   val aLane = (0 until lanes).map { k =>
@@ -270,25 +296,28 @@ class SupportMatcher(p: ElasParams) extends Module {
     val d = Mux(s0Tag.left, s0MaxC1 - c1, c1 - s0MinC1)(baseW - 1, 0)
     (RegEnable(inSweep, s0Valid), RegEnable(d, s0Valid))
   }
-  // B: lane costs and the first levels of the lane tree (ascending lanes, ties to the smaller d)
-  private val treeLevels = log2Ceil(lanes)
-  private val levelsB = treeLevels / 2
-  val laneBest = aSad.zip(aLane).map { case (sads, (inSweep, d)) =>
-    best(Mux(inSweep, SupportMatcher.sumTree(sads), costInf), d, costInf)
-  }
+  // B: lane costs
   val bValid = RegNext(aValid, false.B)
   val bTag = RegEnable(aTag, aValid)
-  val bBest = (0 until levelsB).foldLeft(laneBest: Seq[Best])((xs, _) => treeLevel(xs, aTag.left)).map(RegEnable(_, aValid))
-  // C: the rest of the tree
+  val bBest = aSad.zip(aLane).map { case (sads, (inSweep, d)) =>
+    RegEnable(best(Mux(inSweep, SupportMatcher.sumTree(sads), costInf), d, costInf), aValid)
+  }
+  // C, E: the lane tree (ascending lanes, ties to the smaller d), about half of its levels each
+  private val levels = log2Ceil(lanes)
+  private val levelsC = (levels + 1) / 2
   val cValid = RegNext(bValid, false.B)
   val cTag = RegEnable(bTag, bValid)
-  val blockBest = RegEnable((levelsB until treeLevels).foldLeft(bBest: Seq[Best])((xs, _) => treeLevel(xs, bTag.left)).head, bValid)
+  val cBest = treeLevels(bBest, levelsC, bTag.left).map(RegEnable(_, bValid))
+  val eValid = RegNext(cValid, false.B)
+  val eTag = RegEnable(cTag, cValid)
+  val blockBest = RegEnable(treeLevels(cBest, levels - levelsC, cTag.left).head, cValid)
   // merge: each later block holds higher d (left sweep) or lower d (right sweep)
   val running = Reg(new Best)
-  val merged = Mux(cTag.first, blockBest, merge(running, blockBest, !cTag.left))
-  when(cValid) { running := merged }
-  val leftDone = cValid && cTag.last && cTag.left //   this cycle's merged is the left sweep's result
-  val rightDone = cValid && cTag.last && !cTag.left // ... the right sweep's
+  val takeBlock = eTag.first || bWins(running, blockBest, !eTag.left) // the merged d1 is the block's
+  val merged = Mux(eTag.first, blockBest, merge(running, blockBest, !eTag.left))
+  when(eValid) { running := merged }
+  val leftDone = eValid && eTag.last && eTag.left //   this cycle's merged is the left sweep's result
+  val rightDone = eValid && eTag.last && !eTag.left // ... the right sweep's
 
   // ---- the node whose right sweep is done waits here for its decision and the output register ----
   val pendBusy = RegInit(false.B)
@@ -302,6 +331,8 @@ class SupportMatcher(p: ElasParams) extends Module {
   val pendOk = Reg(Bool())
   val curLeft = Reg(new Best) //   the current node's left result and texture bit
   val curTexL = Reg(Bool())
+  val prefetch = RegInit(false.B) // the next node's references are still to be read in this wait
+  val prefetched = RegInit(false.B) // they are read, and the next node is searched
 
   // ---- output register ----
   val outValid = RegInit(false.B)
@@ -330,12 +361,46 @@ class SupportMatcher(p: ElasParams) extends Module {
       walkSlot := Mux(walkSlot === (slots - 1).U, 0.U, walkSlot + 1.U)
       when(nodeEof) { state := sIdle; walkBusy := false.B }
     }.otherwise {
-      walkU := Mux(walkU +& step.U < width, walkU + step.U, width - 1.U)
+      walkU := uNext
     }
   }
+  /** Sets up the left sweep of node u (its references are read or prefetched). */
+  def startLeft(u: UInt): Unit = {
+    val dhiL = dhiLOf(u)
+    phaseLeft := true.B; uRef := u
+    refC0 := u - r.U
+    refTop := (u - r.U) +& p.dispMax.U
+    refTop2 := u +& (r + p.dispMax).U
+    sweepStart := true.B
+    minC1 := u - r.U - dhiL
+    maxC1 := u - r.U
+    j := blockOf(u + r.U)
+    jLo := blockOf(u - r.U - dhiL)
+    state := sSweep
+  }
   val none = (-1).S((p.dispBits + 1).W)
-  def dispMin(a: UInt): UInt = Mux(a > p.dispMax.U, p.dispMax.U, a)
   def ratioOk(b: Best): Bool = (b.e1 * 100.U) < (b.e2 * p.supportThresholdPercent.U)
+
+  // The left decision's right sweep setup for one d1 (both candidates are computed, the merge picks one).
+  class RightSetup extends Bundle {
+    val c0 = UInt(colW.W) //   u' - r, u' = u - d1
+    val maxC1 = UInt(colW.W) // u' - r + min(W - 1 - margin - u', dispMax)
+    val j = UInt(blockW.W)
+    val addr = Vec(banks, UInt(log2Ceil(2 * viewWords).W))
+  }
+  def rightSetup(d1: UInt): RightSetup = {
+    val s = Wire(new RightSetup)
+    val d = d1(p.dispBits - 1, 0)
+    s.c0 := refC0 - d
+    val top = refTop - d
+    val top2 = refTop2 - d
+    s.maxC1 := Mux(top > rightLimit, rightLimit, top)(colW - 1, 0)
+    s.j := blockOf(Mux(top2 > rightLimit2, rightLimit2, top2))
+    for (b <- 0 until banks) s.addr(b) := rowAddress(1.U, walkSlot, bankWord(s.c0, b))
+    s
+  }
+  val rightNext = Mux(takeBlock, rightSetup(blockBest.d1), rightSetup(running.d1))
+  val decideLeft = state === sWait && leftDone
 
   switch(state) {
     is(sIdle) {
@@ -345,22 +410,16 @@ class SupportMatcher(p: ElasParams) extends Module {
       }
     }
     is(sNode) {
-      val dhiL = dispMin(walkU - margin.U)
-      when(!nodeActive || dhiL < p.supportMinRange.U) {
+      when(!searched(walkU)) {
         // emitted here, after the previous node's decision
         when(rowReady && outFree && !pendBusy) {
           output(none, nodeSof, nodeEol, nodeEof)
           advance()
         }
       }.elsewhen(rowReady) {
-        phaseLeft := true.B; uRef := walkU
         readReference(false.B, walkU - r.U)
-        sweepStart := true.B
-        minC1 := walkU - r.U - dhiL
-        maxC1 := walkU - r.U
-        j := blockOf(walkU + r.U)
-        jLo := blockOf(walkU - r.U - dhiL)
-        state := sSweep
+        refRead := true.B
+        startLeft(walkU)
       }
     }
     is(sSweep) {
@@ -370,6 +429,7 @@ class SupportMatcher(p: ElasParams) extends Module {
         when(j === jLo) {
           when(phaseLeft) {
             state := sWait
+            prefetch := true.B
           }.otherwise { // hand the node to the decision and go on with the next one
             pendBusy := true.B
             pendFlags := VecInit(nodeSof, nodeEol, nodeEof)
@@ -377,32 +437,43 @@ class SupportMatcher(p: ElasParams) extends Module {
             pendTexL := curTexL
             pendRangeOk := maxC1 - minC1 >= p.supportMinRange.U
             advance()
+            when(prefetched) {
+              startLeft(uNext)
+              copyNext := true.B
+              prefetched := false.B
+            }
           }
         }
       }
     }
-    is(sWait) { // the left sweep's result is 4 cycles behind its last block
+    is(sWait) { // the left result is 5 cycles behind its last block; the next node's references are read meanwhile
+      when(prefetch) {
+        prefetch := false.B
+        when(!nodeEol && searched(uNext)) {
+          readReference(false.B, uNext - r.U)
+          nextRead := true.B
+          prefetched := true.B
+        }
+      }
       when(leftDone) {
         // the right sweep (reference u' = u - d1) starts at once; a rejected left result is dropped at the decision
-        val d1 = merged.d1(p.dispBits - 1, 0)
-        val c0 = refC0 - d1 // u' - r
         curLeft := merged
         curTexL := texBits(0) // read at uRef = u
         phaseLeft := false.B
-        uRef := uRef - d1
-        readReference(true.B, c0)
+        uRef := uRef - merged.d1(p.dispBits - 1, 0)
+        readView := true.B
+        readC0 := rightNext.c0
+        refRead := true.B
         sweepStart := true.B
-        // dhiR = min(W - 1 - margin - u', dispMax): maxC1 = u' - r + dhiR
-        val top = c0 +& p.dispMax.U
-        val maxR = Mux(top > rightLimit, rightLimit, top)(colW - 1, 0)
-        minC1 := c0
-        maxC1 := maxR
-        j := blockOf(maxR + (2 * r).U)
-        jLo := blockOf(c0)
+        minC1 := rightNext.c0
+        maxC1 := rightNext.maxC1
+        j := rightNext.j
+        jLo := blockOf(rightNext.c0)
         state := sSweep
       }
     }
   }
+  when(decideLeft) { bankAddr := rightNext.addr } // the right references, u' - r .. u' + r
   // the last right block of the next node waits until this node's decision has left
   when(state === sSweep && !phaseLeft && j === jLo && pendBusy) { hold := true.B }
 
