@@ -23,18 +23,33 @@ import chisel3.util._
   * row of lattice row j + K is written only after lattice row j is finished, which at one pixel every
   * cyclesPerPixel clocks leaves step pixel rows for the search of lattice row j. Nothing grows with the image height.
   *
-  * Search (per active node, one sweep per reference view over d = 0..dhi): the target columns t - r of the sweep
+  * Search (per searched node, one sweep per reference view over d = 0..dhi): the target columns t - r of the sweep
   * are c1 = minC1 .. maxC1 (left reference u: c1 = u - r - d; right reference u': c1 = u' - r + d), each with its
   * partner c1 + 2r. The sweep reads the blocks from the one holding maxC1 + 2r down to the one holding minC1; lane
   * k evaluates c1 = jL + k against the partner in the same block or in the block read the cycle before (its first
-  * 2r columns are kept). The reference columns u ± r are read from the reference view before the sweep (one or two
-  * cycles) and kept in registers. A node costs at most 5 + two sweeps of ceil((dhi + 2r) / L) + 1 blocks
-  * (ElasParams.supportNodeCycles), within supportCyclesPerPoint = cyclesPerPixel x step^2 at every configuration.
-  * Best/second best are merged over lanes in ascending d with strict "<" on the left operand, which equals the
-  * sequential definition (E1 min, d1 its smallest d, E2 the second smallest of the multiset).
+  * 2r columns are kept). The reference columns u ± r are read in one cycle (the L consecutive columns from u - r:
+  * banks below (u - r) mod L read the next word) and kept in registers.
+  *
+  * Pipeline (for timing: at most about two compare-selects per stage): issue (block read) -> A: the four SADs of
+  * every lane as quarter-descriptor SADs -> B: lane costs -> C, E: the lane tree, about half of its levels each ->
+  * merge into the running best. A sweep's result is final 5 cycles after its last block was issued. The right sweep
+  * (u' = u - d1) starts as soon as d1 is known, without waiting for the left ratio and texture tests: it always
+  * runs, and a rejected left result is dropped at the node's decision. While the left result is computed, the read
+  * port is free: the next node's left references are prefetched then, so a searched node after a searched one starts
+  * its left sweep right after the previous right sweep. Node cycles: left blocks + 4 waiting + 1 right reference read
+  * + right blocks, plus 1 left reference read when it was not prefetched (only after a node that is not searched,
+  * which takes one cycle): at most 5 + two sweeps of ceil((dhi + 2r) / L) + 1 blocks (ElasParams.supportNodeCycles),
+  * within supportCyclesPerPoint = cyclesPerPixel x step^2 at every configuration. The node's decision (right result,
+  * then the ratio, texture, range and left/right tests, then the output register) overlaps the next node's search;
+  * a node's value leaves about 8 cycles after its last block read (1 before the pipeline), a node that is not
+  * searched waits for it (values stay in raster order).
+  * Best/second best are merged over lanes and blocks in ascending d with the smaller d winning a tie (strict "<"
+  * against the smaller-d operand), which equals the sequential definition (E1 min, d1 its smallest d, E2 the second
+  * smallest of the multiset).
   *
   * Back-pressure: the input stalls only when a slot is still being searched (or a new frame arrives while the
-  * previous one is still being searched); the output register stalls the walker. Any gaps are fine.
+  * previous one is still being searched); the output register stalls the walker (a node's last right block waits
+  * while the previous node's decision has not left). Any gaps are fine.
   * A start of frame in the middle of a frame is treated as an ordinary pixel (the top's framing check handles it).
   */
 class SupportMatcher(p: ElasParams) extends Module {
@@ -56,7 +71,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   private val firstRow = (margin + step - 1) / step * step // first lattice row that can hold supports
 
   private def sad(x: UInt, y: UInt): UInt = {
-    val unit = Module(new DescriptorSad(p.descriptorBytes))
+    val unit = Module(new DescriptorSad(x.getWidth / 8))
     unit.io.x := x
     unit.io.y := y
     unit.io.sad
@@ -160,10 +175,17 @@ class SupportMatcher(p: ElasParams) extends Module {
       when(writeLeft || writeRight) { rowMem(kind)(b).write(addr, Mux(writeLeft, leftData, rightData)) }
     }
   }
-  when(capture && centreRow.hit) {
-    val tex = Cat(SupportMatcher.texture(io.in.bits.data.right) >= p.supportTexture.U,
-      SupportMatcher.texture(io.in.bits.data.left) >= p.supportTexture.U)
-    texMem.write(texAddress(centreRow.slot, capX), tex)
+  // texture test of the centre rows, one cycle later: half sums registered, then their sum compared
+  def textureHalves(a: UInt): Vec[UInt] = {
+    val w = a.getWidth / 2
+    VecInit(SupportMatcher.texture(a(w - 1, 0)), SupportMatcher.texture(a(2 * w - 1, w)))
+  }
+  val texWrite = RegNext(capture && centreRow.hit, false.B)
+  val texAddr = RegNext(texAddress(centreRow.slot, capX))
+  val texHalves = RegNext(VecInit(textureHalves(io.in.bits.data.left), textureHalves(io.in.bits.data.right)))
+  when(texWrite) {
+    texMem.write(texAddr, Cat(texHalves(1).reduce(_ +& _) >= p.supportTexture.U,
+      texHalves(0).reduce(_ +& _) >= p.supportTexture.U))
   }
 
   // ---- walker: every lattice node in raster order ----
@@ -182,7 +204,8 @@ class SupportMatcher(p: ElasParams) extends Module {
   def dhiLOf(u: UInt): UInt = dispMin(u - margin.U)
   /** Node u of this lattice row is searched (else it holds no support): inside the margins, left range >= minimum. */
   def searched(u: UInt): Bool = rowActive && u >= margin.U && u +& margin.U < width && dhiLOf(u) >= p.supportMinRange.U
-  val uNext = Mux(walkU +& step.U < width, walkU + step.U, width - 1.U) // the next node of this row (when not eol)
+  // the next node of this row (when not eol), registered: walkU is stable for cycles before it is used
+  val uNext = RegNext(Mux(walkU +& step.U < width, walkU + step.U, width - 1.U))
   // per frame (width is held all frame): the last column t - r a right sweep may reach, W - 1 - margin - r, and + 2r
   val rightLimit = RegNext(width - (1 + margin + r).U)
   val rightLimit2 = RegNext(width - (1 + margin - r).U)
@@ -274,20 +297,20 @@ class SupportMatcher(p: ElasParams) extends Module {
     (0 until levels).foldLeft(xs)((ys, _) => ys.grouped(2).map(g => merge(g(0), g(1), left)).toSeq)
 
   // A: per lane (target column c1 = jL + k and its partner c1 + 2r, in this block or the one issued before) the four
-  // SADs, each as two half-descriptor SADs; whether c1 is in the sweep and its d (left d = maxC1 - c1, right c1 - minC1)
-  private val halfBytes = p.descriptorBytes / 2
-  require(2 * halfBytes == p.descriptorBytes)
-  private def halfSads(x: UInt, y: UInt): Seq[UInt] = {
-    val w = 8 * halfBytes
-    Seq(sad(x(w - 1, 0), y(w - 1, 0)), sad(x(2 * w - 1, w), y(2 * w - 1, w)))
-  }
+  // SADs, each as four quarter-descriptor SADs; whether c1 is in the sweep and its d (left d = maxC1 - c1, right
+  // c1 - minC1)
+  private val sadParts = 4
+  private val partBits = 8 * p.descriptorBytes / sadParts
+  require(partBits * sadParts == 8 * p.descriptorBytes)
+  private def partSads(x: UInt, y: UInt): Seq[UInt] =
+    (0 until sadParts).map(i => sad(x((i + 1) * partBits - 1, i * partBits), y((i + 1) * partBits - 1, i * partBits)))
   val aValid = RegNext(s0Valid, false.B)
   val aTag = RegEnable(s0Tag, s0Valid)
   val aSad = (0 until lanes).map { k =>
     RegEnable(VecInit((0 until 2).flatMap { kind =>
       val cur = data(kind)
       val partner = if (k + 2 * r < banks) cur(k + 2 * r) else prevBlock(kind)(k + 2 * r - banks)
-      halfSads(refLo(kind), cur(k)) ++ halfSads(refHi(kind), partner)
+      partSads(refLo(kind), cur(k)) ++ partSads(refHi(kind), partner)
     }), s0Valid)
   }
   val aLane = (0 until lanes).map { k =>
@@ -361,7 +384,7 @@ class SupportMatcher(p: ElasParams) extends Module {
       walkSlot := Mux(walkSlot === (slots - 1).U, 0.U, walkSlot + 1.U)
       when(nodeEof) { state := sIdle; walkBusy := false.B }
     }.otherwise {
-      walkU := uNext
+      walkU := Mux(walkU +& step.U < width, walkU + step.U, width - 1.U)
     }
   }
   /** Sets up the left sweep of node u (its references are read or prefetched). */
@@ -410,6 +433,7 @@ class SupportMatcher(p: ElasParams) extends Module {
       }
     }
     is(sNode) {
+      readReference(false.B, walkU - r.U) // the node's references, used if it is searched (keeps the test off the address)
       when(!searched(walkU)) {
         // emitted here, after the previous node's decision
         when(rowReady && outFree && !pendBusy) {
@@ -417,7 +441,6 @@ class SupportMatcher(p: ElasParams) extends Module {
           advance()
         }
       }.elsewhen(rowReady) {
-        readReference(false.B, walkU - r.U)
         refRead := true.B
         startLeft(walkU)
       }
@@ -449,8 +472,8 @@ class SupportMatcher(p: ElasParams) extends Module {
     is(sWait) { // the left result is 5 cycles behind its last block; the next node's references are read meanwhile
       when(prefetch) {
         prefetch := false.B
+        readReference(false.B, uNext - r.U)
         when(!nodeEol && searched(uNext)) {
-          readReference(false.B, uNext - r.U)
           nextRead := true.B
           prefetched := true.B
         }
@@ -507,8 +530,8 @@ object SupportMatcher {
   /** Bits of a cost: 4 descriptors x 16 bytes x 255, plus room for the "no disparity" value above it. */
   def costBits(p: ElasParams): Int = log2Ceil(4 * p.descriptorBytes * 255 + 2)
 
-  /** Cycles of the search for one active node with left/right ranges dhiL/dhiR at the worst block alignment: node
-    * start, per sweep a second reference read, its blocks and a decision cycle (ElasParams.supportNodeCycles).
+  /** Cycles of the search for one searched node with left/right ranges dhiL/dhiR at the worst block alignment: the
+    * sweeps' blocks, the wait for the left result and the right reference read (ElasParams.supportNodeCycles).
     */
   def nodeCycles(p: ElasParams, dhiL: Int, dhiR: Int): Int =
     ElasParams.supportOverheadCycles + ElasParams.supportSweepCycles(dhiL, p.windowRadius, p.supportLanesUsed) +
