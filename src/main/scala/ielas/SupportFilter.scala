@@ -52,7 +52,13 @@ class SupportFilter(p: ElasParams) extends Module {
   val writeSlot = Mux(start, 0.U, inSlot)
 
   val rows = Seq.fill(slots)(SyncReadMem(colsMax, valueType))
-  for ((mem, s) <- rows.zipWithIndex) when(write && writeSlot === s.U) { mem.write(writeCol, io.in.bits.data) }
+  // Writes are registered (the input logic stays off the memories' read paths). A row is read only once the next
+  // row has started (rowReady) or the frame is complete, so its last value is always written before it is read.
+  val wrEnable = RegNext(write, false.B)
+  val wrCol = RegNext(writeCol)
+  val wrSlot = RegNext(writeSlot)
+  val wrData = RegNext(io.in.bits.data)
+  for ((mem, s) <- rows.zipWithIndex) when(wrEnable && wrSlot === s.U) { mem.write(wrCol, wrData) }
 
   when(start) {
     inBusy := true.B; procBusy := true.B; frameDone := false.B
@@ -80,9 +86,14 @@ class SupportFilter(p: ElasParams) extends Module {
 
   /** The value of window row offset o (row procJ + o) in the column read last cycle, and whether that row exists. */
   def windowRow(o: Int): (SInt, Bool) = {
-    val slot = (procSlot +& (o + slots).U) % slots.U
     val row = procJ.zext +& o.S
-    (VecInit(readData)(slot(log2Ceil(slots) - 1, 0)), row >= 0.S && row < rowsIn.zext)
+    (VecInit(readData)(slotOf(o)), row >= 0.S && row < rowsIn.zext)
+  }
+  /** The slot of window row offset o: (procSlot + o) mod slots, |o| <= k < slots (one correction, no divider). */
+  def slotOf(o: Int): UInt = {
+    val t = procSlot +& (o + slots).U // slots - k .. 2 slots + k - 1
+    val s = if (o == 0) procSlot else Mux(t >= (2 * slots).U, t - (2 * slots).U, Mux(t >= slots.U, t - slots.U, t))
+    s(log2Ceil(slots) - 1, 0)
   }
 
   val centre = Reg(valueType)
@@ -147,7 +158,7 @@ class SupportFilter(p: ElasParams) extends Module {
       hi := v +& p.inconThreshold.S
       for (o <- -k to k) {
         val (_, exists) = windowRow(o)
-        rowSel(o + k) := (procSlot +& (o + slots).U) % slots.U
+        rowSel(o + k) := slotOf(o)
         rowOk(o + k) := exists
       }
       when(v < 0.S) {
