@@ -16,7 +16,7 @@ import chisel3.util._
   *   buffer bits = (2k + 2) x latticeColsMax x (dispBits + 1)   (kitti: 12 x 250 x 9 = 27,000 bits).
   * Per node: one cycle reads the centre column, then one column of 2k+1 rows per cycle goes through two counting
   * stages (agreement bit per row, then their sum into the count), plus one drain cycle: 2k + 5 cycles for a support
-  * node (15 at k = 5), 2 for an empty node, against an average of step^2 = 25 pixel clocks per node at 1 pixel per
+  * node (15 at k = 5), 3 for an empty node, against an average of step^2 = 25 pixel clocks per node at 1 pixel per
   * clock. The input stalls only when the row slot to be written is still
   * inside the window being filtered (or a new frame arrives while the previous one is still being filtered).
   */
@@ -101,6 +101,9 @@ class SupportFilter(p: ElasParams) extends Module {
   val scanCol = Reg(UInt(colW.W)) //  next column to read
   val scanLast = Reg(UInt(colW.W)) // last column of the window
   val lastRead = RegInit(false.B) //  the column read last cycle was the window's last
+  // the window's first and last column, registered (procI is stable in sCentre, the cycle before sFirst)
+  val firstCol = RegNext(Mux(procI > k.U, procI - k.U, 0.U))
+  val lastCol = RegNext(Mux(procI +& k.U < lw, procI + k.U, lw - 1.U))
 
   val rowReady = frameDone || rowsIn > procJ +& k.U
   // Per node, fixed in sFirst (the window rows exist or not for the whole scan: rowReady holds rows up to procJ + k,
@@ -161,21 +164,21 @@ class SupportFilter(p: ElasParams) extends Module {
         rowSel(o + k) := slotOf(o)
         rowOk(o + k) := exists
       }
+      readCol := firstCol // the window's first column (read for nothing when the node is empty)
+      count := 0.U
       when(v < 0.S) {
-        emit((-1).S)
+        state := sEmit // count 0 < inconMinSupport: emits -1 (from sEmit, as the read above moves on)
       }.otherwise {
-        val first = Mux(procI > k.U, procI - k.U, 0.U)
-        readCol := first
-        scanCol := first + 1.U
-        scanLast := Mux(procI +& k.U < lw, procI + k.U, lw - 1.U)
-        lastRead := first === Mux(procI +& k.U < lw, procI + k.U, lw - 1.U)
-        count := 0.U
+        scanCol := Mux(firstCol === lastCol, firstCol, firstCol + 1.U)
+        scanLast := lastCol
+        lastRead := firstCol === lastCol
         state := sScan
       }
     }
     is(sScan) { // the column read last cycle goes to the counting stages, read the next one
-      readCol := Mux(lastRead, procI, scanCol) // past the window's last column: an address that exists
-      scanCol := scanCol + 1.U
+      // after the window's last column it is read again (the read address stays off lastRead and in range)
+      readCol := scanCol
+      scanCol := Mux(scanCol === scanLast, scanCol, scanCol + 1.U)
       lastRead := scanCol === scanLast
       when(lastRead) { state := sCount }
     }
@@ -184,7 +187,7 @@ class SupportFilter(p: ElasParams) extends Module {
       emit(Mux(count >= p.inconMinSupport.U, centre, (-1).S))
     }
   }
-  // sCentre and sFirst read procI (the default); a stall in sEmit reads nothing useful.
+  // sCentre reads procI (the default), sFirst the first column; a stall in sEmit reads nothing useful.
 }
 
 object SupportFilter {
