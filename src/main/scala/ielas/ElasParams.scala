@@ -185,8 +185,9 @@ case class ElasParams(
 }
 
 object ElasParams {
-  /** Fixed cycles a support point spends outside its lane sweeps at worst: node start, two decisions, and one
-    * more reference read per sweep when the reference columns u - r and u + r lie in two blocks.
+  /** Fixed cycles a support point spends outside its lane sweeps at worst: 4 waiting for the left result (the
+    * SupportMatcher search pipeline) and the right reference read (the left one is prefetched meanwhile for the next
+    * node; a node that is not prefetched follows one that is not searched and took one cycle).
     */
   val supportOverheadCycles: Int = 5
 

@@ -14,9 +14,10 @@ import chisel3.util._
   * Buffer: slots = 2k + 2 lattice rows, one memory per row slot (rows j-k .. j+k are read while row j+k+1 is
   * written into the remaining slot):
   *   buffer bits = (2k + 2) x latticeColsMax x (dispBits + 1)   (kitti: 12 x 250 x 9 = 27,000 bits).
-  * Per node: one cycle reads the centre column, then one column of 2k+1 rows per cycle is counted, plus one drain
-  * cycle: 2k + 4 cycles for a support node (14 at k = 5), 2 for an empty node, against an average of step^2 = 25
-  * pixel clocks per node at 1 pixel per clock. The input stalls only when the row slot to be written is still
+  * Per node: one cycle reads the centre column, then one column of 2k+1 rows per cycle goes through two counting
+  * stages (agreement bit per row, then their sum into the count), plus one drain cycle: 2k + 5 cycles for a support
+  * node (15 at k = 5), 3 for an empty node, against an average of step^2 = 25 pixel clocks per node at 1 pixel per
+  * clock. The input stalls only when the row slot to be written is still
   * inside the window being filtered (or a new frame arrives while the previous one is still being filtered).
   */
 class SupportFilter(p: ElasParams) extends Module {
@@ -51,7 +52,13 @@ class SupportFilter(p: ElasParams) extends Module {
   val writeSlot = Mux(start, 0.U, inSlot)
 
   val rows = Seq.fill(slots)(SyncReadMem(colsMax, valueType))
-  for ((mem, s) <- rows.zipWithIndex) when(write && writeSlot === s.U) { mem.write(writeCol, io.in.bits.data) }
+  // Writes are registered (the input logic stays off the memories' read paths). A row is read only once the next
+  // row has started (rowReady) or the frame is complete, so its last value is always written before it is read.
+  val wrEnable = RegNext(write, false.B)
+  val wrCol = RegNext(writeCol)
+  val wrSlot = RegNext(writeSlot)
+  val wrData = RegNext(io.in.bits.data)
+  for ((mem, s) <- rows.zipWithIndex) when(wrEnable && wrSlot === s.U) { mem.write(wrCol, wrData) }
 
   when(start) {
     inBusy := true.B; procBusy := true.B; frameDone := false.B
@@ -69,7 +76,7 @@ class SupportFilter(p: ElasParams) extends Module {
   }
 
   // ---- filtering ----
-  val sIdle :: sCentre :: sFirst :: sScan :: sEmit :: Nil = Enum(5)
+  val sIdle :: sCentre :: sFirst :: sScan :: sCount :: sEmit :: Nil = Enum(6)
   val state = RegInit(sIdle)
   val procI = RegInit(0.U(colW.W))
   val procSlot = RegInit(0.U(log2Ceil(slots).W))
@@ -79,9 +86,14 @@ class SupportFilter(p: ElasParams) extends Module {
 
   /** The value of window row offset o (row procJ + o) in the column read last cycle, and whether that row exists. */
   def windowRow(o: Int): (SInt, Bool) = {
-    val slot = (procSlot +& (o + slots).U) % slots.U
     val row = procJ.zext +& o.S
-    (VecInit(readData)(slot(log2Ceil(slots) - 1, 0)), row >= 0.S && row < rowsIn.zext)
+    (VecInit(readData)(slotOf(o)), row >= 0.S && row < rowsIn.zext)
+  }
+  /** The slot of window row offset o: (procSlot + o) mod slots, |o| <= k < slots (one correction, no divider). */
+  def slotOf(o: Int): UInt = {
+    val t = procSlot +& (o + slots).U // slots - k .. 2 slots + k - 1
+    val s = if (o == 0) procSlot else Mux(t >= (2 * slots).U, t - (2 * slots).U, Mux(t >= slots.U, t - slots.U, t))
+    s(log2Ceil(slots) - 1, 0)
   }
 
   val centre = Reg(valueType)
@@ -89,13 +101,25 @@ class SupportFilter(p: ElasParams) extends Module {
   val scanCol = Reg(UInt(colW.W)) //  next column to read
   val scanLast = Reg(UInt(colW.W)) // last column of the window
   val lastRead = RegInit(false.B) //  the column read last cycle was the window's last
+  // the window's first and last column, registered (procI is stable in sCentre, the cycle before sFirst)
+  val firstCol = RegNext(Mux(procI > k.U, procI - k.U, 0.U))
+  val lastCol = RegNext(Mux(procI +& k.U < lw, procI + k.U, lw - 1.U))
 
   val rowReady = frameDone || rowsIn > procJ +& k.U
-  val columnCount = (-k to k).map { o =>
-    val (v, exists) = windowRow(o)
-    val diff = Mux(v > centre, v - centre, centre - v)
-    (exists && v >= 0.S && diff <= p.inconThreshold.S).asUInt
-  }.reduce(_ +& _)
+  // Per node, fixed in sFirst (the window rows exist or not for the whole scan: rowReady holds rows up to procJ + k,
+  // or the frame is complete): each window row's memory, whether it exists, and the agreeing value range.
+  val rowSel = Reg(Vec(2 * k + 1, UInt(log2Ceil(slots).W)))
+  val rowOk = Reg(Vec(2 * k + 1, Bool()))
+  val lo = Reg(SInt((p.dispBits + 2).W)) // max(centre - inconThreshold, 0): also excludes the empty nodes (-1)
+  val hi = Reg(SInt((p.dispBits + 2).W)) // centre + inconThreshold
+  // Counting, two stages: the column read last cycle -> one agreement bit per window row -> count.
+  val selected = VecInit(readData)
+  val agree = RegNext(VecInit(rowSel.zip(rowOk).map { case (sel, ok) =>
+    val v = selected(sel)
+    ok && v >= lo && v <= hi
+  }))
+  val agreeValid = RegNext(state === sScan, false.B)
+  when(agreeValid) { count := count + PopCount(agree) }
 
   val outValid = RegInit(false.B)
   val outBits = Reg(new Framed(valueType))
@@ -132,30 +156,38 @@ class SupportFilter(p: ElasParams) extends Module {
     is(sFirst) {
       val (v, _) = windowRow(0)
       centre := v
+      val vLo = v -& p.inconThreshold.S
+      lo := Mux(vLo < 0.S, 0.S, vLo)
+      hi := v +& p.inconThreshold.S
+      for (o <- -k to k) {
+        val (_, exists) = windowRow(o)
+        rowSel(o + k) := slotOf(o)
+        rowOk(o + k) := exists
+      }
+      readCol := firstCol // the window's first column (read for nothing when the node is empty)
+      count := 0.U
       when(v < 0.S) {
-        emit((-1).S)
+        state := sEmit // count 0 < inconMinSupport: emits -1 (from sEmit, as the read above moves on)
       }.otherwise {
-        val first = Mux(procI > k.U, procI - k.U, 0.U)
-        readCol := first
-        scanCol := first + 1.U
-        scanLast := Mux(procI +& k.U < lw, procI + k.U, lw - 1.U)
-        lastRead := first === Mux(procI +& k.U < lw, procI + k.U, lw - 1.U)
-        count := 0.U
+        scanCol := Mux(firstCol === lastCol, firstCol, firstCol + 1.U)
+        scanLast := lastCol
+        lastRead := firstCol === lastCol
         state := sScan
       }
     }
-    is(sScan) { // count the column read last cycle, read the next one
-      count := count + columnCount
-      readCol := Mux(lastRead, procI, scanCol) // past the window's last column: an address that exists
-      scanCol := scanCol + 1.U
+    is(sScan) { // the column read last cycle goes to the counting stages, read the next one
+      // after the window's last column it is read again (the read address stays off lastRead and in range)
+      readCol := scanCol
+      scanCol := Mux(scanCol === scanLast, scanCol, scanCol + 1.U)
       lastRead := scanCol === scanLast
-      when(lastRead) { state := sEmit }
+      when(lastRead) { state := sCount }
     }
+    is(sCount) { state := sEmit } // the last column's agreement bits are added to count
     is(sEmit) {
       emit(Mux(count >= p.inconMinSupport.U, centre, (-1).S))
     }
   }
-  // sCentre and sFirst read procI (the default); a stall in sEmit reads nothing useful.
+  // sCentre reads procI (the default), sFirst the first column; a stall in sEmit reads nothing useful.
 }
 
 object SupportFilter {

@@ -23,18 +23,33 @@ import chisel3.util._
   * row of lattice row j + K is written only after lattice row j is finished, which at one pixel every
   * cyclesPerPixel clocks leaves step pixel rows for the search of lattice row j. Nothing grows with the image height.
   *
-  * Search (per active node, one sweep per reference view over d = 0..dhi): the target columns t - r of the sweep
+  * Search (per searched node, one sweep per reference view over d = 0..dhi): the target columns t - r of the sweep
   * are c1 = minC1 .. maxC1 (left reference u: c1 = u - r - d; right reference u': c1 = u' - r + d), each with its
   * partner c1 + 2r. The sweep reads the blocks from the one holding maxC1 + 2r down to the one holding minC1; lane
   * k evaluates c1 = jL + k against the partner in the same block or in the block read the cycle before (its first
-  * 2r columns are kept). The reference columns u ± r are read from the reference view before the sweep (one or two
-  * cycles) and kept in registers. A node costs at most 5 + two sweeps of ceil((dhi + 2r) / L) + 1 blocks
-  * (ElasParams.supportNodeCycles), within supportCyclesPerPoint = cyclesPerPixel x step^2 at every configuration.
-  * Best/second best are merged over lanes in ascending d with strict "<" on the left operand, which equals the
-  * sequential definition (E1 min, d1 its smallest d, E2 the second smallest of the multiset).
+  * 2r columns are kept). The reference columns u ± r are read in one cycle (the L consecutive columns from u - r:
+  * banks below (u - r) mod L read the next word) and kept in registers.
+  *
+  * Pipeline (for timing: at most about two compare-selects per stage): issue (block read) -> A: the four SADs of
+  * every lane as quarter-descriptor SADs -> B: lane costs -> C, E: the lane tree, about half of its levels each ->
+  * merge into the running best. A sweep's result is final 5 cycles after its last block was issued. The right sweep
+  * (u' = u - d1) starts as soon as d1 is known, without waiting for the left ratio and texture tests: it always
+  * runs, and a rejected left result is dropped at the node's decision. While the left result is computed, the read
+  * port is free: the next node's left references are prefetched then, so a searched node after a searched one starts
+  * its left sweep right after the previous right sweep. Node cycles: left blocks + 4 waiting + 1 right reference read
+  * + right blocks, plus 1 left reference read when it was not prefetched (only after a node that is not searched,
+  * which takes one cycle): at most 5 + two sweeps of ceil((dhi + 2r) / L) + 1 blocks (ElasParams.supportNodeCycles),
+  * within supportCyclesPerPoint = cyclesPerPixel x step^2 at every configuration. The node's decision (right result,
+  * then the ratio, texture, range and left/right tests, then the output register) overlaps the next node's search;
+  * a node's value leaves about 8 cycles after its last block read (1 before the pipeline), a node that is not
+  * searched waits for it (values stay in raster order).
+  * Best/second best are merged over lanes and blocks in ascending d with the smaller d winning a tie (strict "<"
+  * against the smaller-d operand), which equals the sequential definition (E1 min, d1 its smallest d, E2 the second
+  * smallest of the multiset).
   *
   * Back-pressure: the input stalls only when a slot is still being searched (or a new frame arrives while the
-  * previous one is still being searched); the output register stalls the walker. Any gaps are fine.
+  * previous one is still being searched); the output register stalls the walker (a node's last right block waits
+  * while the previous node's decision has not left). Any gaps are fine.
   * A start of frame in the middle of a frame is treated as an ordinary pixel (the top's framing check handles it).
   */
 class SupportMatcher(p: ElasParams) extends Module {
@@ -56,7 +71,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   private val firstRow = (margin + step - 1) / step * step // first lattice row that can hold supports
 
   private def sad(x: UInt, y: UInt): UInt = {
-    val unit = Module(new DescriptorSad(p.descriptorBytes))
+    val unit = Module(new DescriptorSad(x.getWidth / 8))
     unit.io.x := x
     unit.io.y := y
     unit.io.sad
@@ -141,91 +156,126 @@ class SupportMatcher(p: ElasParams) extends Module {
 
   val capBank = capX(bankBits - 1, 0)
   val capWord = capX >> bankBits
-  // The left word is written with the pixel, the right word one cycle later: that bank's next write is `banks`
-  // columns away, and a kind's captured rows are step >= 2 pixel rows apart, so the two never meet.
+  // Writes are registered (the address logic stays off the memories' read paths): the left word is written one
+  // cycle after the pixel, the right word two. That bank's next write is `banks` columns away, and a kind's captured
+  // rows are step >= 2 pixel rows apart, so the two never meet; the sweeps never read the last r + 1 columns of a
+  // row, whose writes may still be under way when the walker finds the row complete.
+  val leftData = RegNext(io.in.bits.data.left)
+  val rightData = RegNext(RegNext(io.in.bits.data.right))
   for ((tracker, kind) <- Seq(topRow, bottomRow).zipWithIndex) {
     val hit = capture && tracker.hit
-    val rightPending = RegNext(hit, false.B)
-    val rightBank = RegNext(capBank)
-    val rightAddr = RegNext(rowAddress(1.U, tracker.slot, capWord))
-    val rightData = RegNext(io.in.bits.data.right)
-    val leftAddr = rowAddress(0.U, tracker.slot, capWord)
-    for (b <- 0 until banks) { // one write port per memory
-      val writeLeft = hit && capBank === b.U
-      when(writeLeft || rightPending && rightBank === b.U) {
-        rowMem(kind)(b).write(Mux(writeLeft, leftAddr, rightAddr), Mux(writeLeft, io.in.bits.data.left, rightData))
-      }
+    val leftPending = RegNext(hit, false.B)
+    val leftBank = RegNext(capBank)
+    val leftAddr = RegNext(rowAddress(0.U, tracker.slot, capWord))
+    for (b <- 0 until banks) { // one write port per memory, its address decided a cycle ahead
+      val nowLeft = hit && capBank === b.U
+      val writeLeft = RegNext(nowLeft, false.B)
+      val writeRight = RegNext(leftPending && leftBank === b.U, false.B)
+      val addr = RegNext(Mux(nowLeft, rowAddress(0.U, tracker.slot, capWord), leftAddr + viewWords.U))
+      when(writeLeft || writeRight) { rowMem(kind)(b).write(addr, Mux(writeLeft, leftData, rightData)) }
     }
   }
-  when(capture && centreRow.hit) {
-    val tex = Cat(SupportMatcher.texture(io.in.bits.data.right) >= p.supportTexture.U,
-      SupportMatcher.texture(io.in.bits.data.left) >= p.supportTexture.U)
-    texMem.write(texAddress(centreRow.slot, capX), tex)
+  // texture test of the centre rows, one cycle later: half sums registered, then their sum compared
+  def textureHalves(a: UInt): Vec[UInt] = {
+    val w = a.getWidth / 2
+    VecInit(SupportMatcher.texture(a(w - 1, 0)), SupportMatcher.texture(a(2 * w - 1, w)))
+  }
+  val texWrite = RegNext(capture && centreRow.hit, false.B)
+  val texAddr = RegNext(texAddress(centreRow.slot, capX))
+  val texHalves = RegNext(VecInit(textureHalves(io.in.bits.data.left), textureHalves(io.in.bits.data.right)))
+  when(texWrite) {
+    texMem.write(texAddr, Cat(texHalves(1).reduce(_ +& _) >= p.supportTexture.U,
+      texHalves(0).reduce(_ +& _) >= p.supportTexture.U))
   }
 
   // ---- walker: every lattice node in raster order ----
-  val sIdle :: sNode :: sRefHi :: sSweep :: sDecide :: Nil = Enum(5)
+  val sIdle :: sNode :: sSweep :: sWait :: Nil = Enum(4)
   val state = RegInit(sIdle)
   val phaseLeft = RegInit(true.B) // sweeping with the left view as reference
   val uRef = RegInit(0.U(p.colBits.W)) // reference column of the current sweep
-  val dLeft = RegInit(0.U(p.dispBits.W))
+  // the left sweep's reference u: u - r, u - r + dispMax and u + r + dispMax (the right sweep's bounds are these - d1)
+  val refC0 = RegInit(0.U(colW.W))
+  val refTop = RegInit(0.U((colW + 1).W))
+  val refTop2 = RegInit(0.U((colW + 1).W))
 
   val rowActive = walkV >= margin.U && walkV +& margin.U < height
-  val nodeActive = rowActive && walkU >= margin.U && walkU +& margin.U < width
   val rowReady = !rowActive || bottomRow.v > walkV // both descriptor rows of this lattice row are in
+  def dispMin(a: UInt): UInt = Mux(a > p.dispMax.U, p.dispMax.U, a)
+  def dhiLOf(u: UInt): UInt = dispMin(u - margin.U)
+  /** Node u of this lattice row is searched (else it holds no support): inside the margins, left range >= minimum. */
+  def searched(u: UInt): Bool = rowActive && u >= margin.U && u +& margin.U < width && dhiLOf(u) >= p.supportMinRange.U
+  // the next node of this row (when not eol), registered: walkU is stable for cycles before it is used
+  val uNext = RegNext(Mux(walkU +& step.U < width, walkU + step.U, width - 1.U))
+  // per frame (width is held all frame): the last column t - r a right sweep may reach, W - 1 - margin - r, and + 2r
+  val rightLimit = RegNext(width - (1 + margin + r).U)
+  val rightLimit2 = RegNext(width - (1 + margin - r).U)
 
-  // ---- block reads: word j of every bank is the aligned block of columns jL .. jL + L - 1, lane k = bank k ----
+  // ---- reads: word j of every bank is the aligned block of columns jL .. jL + L - 1, lane k = bank k ----
   val blockW = log2Ceil(wordsPerRow + 1)
   def blockOf(col: UInt): UInt = (col >> bankBits)(blockW - 1, 0)
-  val j = RegInit(0.U(blockW.W)) //   block the sweep reads this cycle (the sweep runs from jHi down to jLo)
+  val j = RegInit(0.U(blockW.W)) //   block the sweep reads this cycle (the sweep runs from j down to jLo)
   val jLo = RegInit(0.U(blockW.W))
-  val sweepStart = RegInit(false.B) // the sweep's first block (its s1 result starts the running best)
-  val minC1 = RegInit(0.U(colW.W)) // target columns t - r of the sweep's disparities: minC1 .. minC1 + dhi
+  val sweepStart = RegInit(false.B) // the sweep's first block (its result starts the running best)
+  val minC1 = RegInit(0.U(colW.W)) // target columns t - r of the sweep's disparities: minC1 .. maxC1
   val maxC1 = RegInit(0.U(colW.W))
-  val dRight = Wire(UInt(p.dispBits.W)) // the left sweep's decision, which sets the right sweep's reference column
-  val uRight = uRef - dRight
-  // One read per bank and cycle: the reference view's block of uRef - r in the cycle before a sweep (sNode, or
-  // sDecide before the right sweep), its block of uRef + r (sRefHi, skipped when it is the same block), then the
-  // target view's blocks j.
-  val refLoWord = Mux(state === sNode, blockOf(walkU - r.U), blockOf(uRight - r.U))
-  val readView = Mux(state === sNode || state === sRefHi, !phaseLeft && state === sRefHi,
-    Mux(state === sSweep, phaseLeft, true.B)) // sDecide: the right view's reference (only used after the left sweep)
-  val readWord = Mux(state === sSweep, j, Mux(state === sRefHi, blockOf(uRef + r.U), refLoWord))
-  val data = (0 until 2).map(kind => (0 until banks).map(b => rowMem(kind)(b).read(rowAddress(readView, walkSlot, readWord))))
+  // One read per bank and cycle. A reference read fetches the L consecutive columns from c0 = u - r on (banks below
+  // c0 mod L read the next word), so u - r and u + r (2r < L) arrive together; a sweep reads the aligned block j.
+  val readView = WireDefault(phaseLeft) // sweep: the target view (the right one for the left sweep)
+  val readWord = WireDefault(j)
+  val readSplit = WireDefault(0.U(bankBits.W))
+  val readC0 = RegInit(0.U(colW.W)) // c0 of the reference read issued last cycle
+  val refRead = RegInit(false.B) //  the data of this cycle: the current sweep's references
+  val nextRead = RegInit(false.B) // ... the next node's left references (read while a left result is computed)
+  refRead := false.B
+  nextRead := false.B
+  def bankWord(c0: UInt, b: Int): UInt = (blockOf(c0) +& (b.U < c0(bankBits - 1, 0)).asUInt)(blockW - 1, 0)
+  def readReference(view: Bool, c0: UInt): Unit = {
+    readView := view
+    readWord := blockOf(c0)
+    readSplit := c0(bankBits - 1, 0)
+    readC0 := c0
+  }
+  val bankAddr = Wire(Vec(banks, UInt(log2Ceil(2 * viewWords).W)))
+  for (b <- 0 until banks) {
+    bankAddr(b) := rowAddress(readView, walkSlot, (readWord +& (b.U < readSplit).asUInt)(blockW - 1, 0))
+  }
+  val data = (0 until 2).map(kind => (0 until banks).map(b => rowMem(kind)(b).read(bankAddr(b))))
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
-  // ---- the sweep's reference descriptors (columns uRef - r and uRef + r), kept in registers ----
+  // ---- reference descriptors (columns c0 and c0 + 2r of a reference read), kept in registers ----
   def column(data: Seq[UInt], col: UInt): UInt = Mux1H(data.indices.map(b => col(bankBits - 1, 0) === b.U), data)
-  val loRead = RegInit(false.B) // the data of this cycle holds column uRef - r (and uRef + r when hiRead)
-  val hiRead = RegInit(false.B)
-  loRead := false.B
-  hiRead := state === sRefHi
   val refLo = Reg(Vec(2, UInt(descBits.W)))
   val refHi = Reg(Vec(2, UInt(descBits.W)))
-  when(loRead) { for (kind <- 0 until 2) refLo(kind) := column(data(kind), uRef - r.U) }
-  when(hiRead) { for (kind <- 0 until 2) refHi(kind) := column(data(kind), uRef + r.U) }
-  /** Starts a sweep with reference column u: its reference reads are under way (one more cycle when u ± r lie in
-    * two blocks).
-    */
-  def startSweep(u: UInt): Unit = {
-    val oneBlock = blockOf(u - r.U) === blockOf(u + r.U)
-    loRead := true.B
-    hiRead := oneBlock
-    sweepStart := true.B
-    state := Mux(oneBlock, sSweep, sRefHi)
+  val nextLo = Reg(Vec(2, UInt(descBits.W)))
+  val nextHi = Reg(Vec(2, UInt(descBits.W)))
+  val copyNext = RegInit(false.B) // the next node's sweep has started: its prefetched references take over
+  copyNext := false.B
+  for (kind <- 0 until 2) {
+    val lo = column(data(kind), readC0)
+    val hi = column(data(kind), readC0 + (2 * r).U)
+    when(refRead) { refLo(kind) := lo; refHi(kind) := hi }
+    when(nextRead) { nextLo(kind) := lo; nextHi(kind) := hi }
+    when(copyNext) { refLo(kind) := nextLo(kind); refHi(kind) := nextHi(kind) }
   }
-  val tgtView = data
 
-  // ---- s1: costs of the block read last cycle, merged into the running best / second best ----
-  val issue = state === sSweep
-  val s1Valid = RegNext(issue, false.B)
-  val s1Left = RegNext(phaseLeft)
-  val s1Block = RegNext(j)
-  val s1MinC1 = RegNext(minC1)
-  val s1MaxC1 = RegNext(maxC1)
-  val s1First = RegNext(sweepStart)
-  // columns 0 .. 2r - 1 of the block read the cycle before (block j + 1): the partners of the top 2r lanes
-  val prevBlock = tgtView.map(cols => RegNext(VecInit(cols.take(2 * r).toSeq)))
+  // ---- search pipeline: issue (read) -> A: half SADs -> B: lane costs -> C, E: the lane tree -> merge into the
+  // running best. A sweep's result is final 5 cycles after its last block is issued. ----
+  class Tag extends Bundle {
+    val left = Bool() //  the block belongs to a left sweep
+    val first = Bool() // the sweep's first block
+    val last = Bool() //  the sweep's last block
+  }
+  val hold = WireDefault(false.B) // the right sweep's last block waits for the previous node's decision
+  val issue = state === sSweep && !hold
+  val tag = Wire(new Tag)
+  tag.left := phaseLeft; tag.first := sweepStart; tag.last := j === jLo
+  val s0Valid = RegNext(issue, false.B)
+  val s0Tag = RegNext(tag)
+  val s0Block = RegNext(j)
+  val s0MinC1 = RegNext(minC1)
+  val s0MaxC1 = RegNext(maxC1)
+  // columns 0 .. 2r - 1 of the block issued before (block j + 1): the partners of the top 2r lanes
+  val prevBlock = data.map(cols => RegEnable(VecInit(cols.take(2 * r).toSeq), s0Valid))
 
   class Best extends Bundle {
     val e1 = UInt(costBits.W)
@@ -235,37 +285,77 @@ class SupportMatcher(p: ElasParams) extends Module {
   def best(e1: UInt, d1: UInt, e2: UInt): Best = {
     val b = Wire(new Best); b.e1 := e1; b.d1 := d1; b.e2 := e2; b
   }
-  /** `a` covers smaller disparities than `b`: a strict "<" keeps a's d on ties, and a tie makes E2 = E1. */
-  def merge(a: Best, b: Best): Best = {
-    val bWins = b.e1 < a.e1
-    best(Mux(bWins, b.e1, a.e1), Mux(bWins, b.d1, a.d1),
-      Mux(bWins, SupportMatcher.min(a.e1, b.e2), SupportMatcher.min(a.e2, b.e1)))
+  /** b's E1 wins over a's; `bFirst` says b holds the smaller disparities: the smaller d wins a tie (first minimum). */
+  def bWins(a: Best, b: Best, bFirst: Bool): Bool = Mux(bFirst, b.e1 <= a.e1, b.e1 < a.e1)
+  /** Merges two results (a tie makes E2 = E1). */
+  def merge(a: Best, b: Best, bFirst: Bool): Best = {
+    val w = bWins(a, b, bFirst)
+    best(Mux(w, b.e1, a.e1), Mux(w, b.d1, a.d1), Mux(w, SupportMatcher.min(a.e1, b.e2), SupportMatcher.min(a.e2, b.e1)))
   }
-  def tree(xs: Seq[Best]): Best = if (xs.length == 1) xs.head else {
-    val (lo, hi) = xs.splitAt(xs.length / 2)
-    merge(tree(lo), tree(hi))
-  }
+  /** Levels of the lane tree: neighbours merge (the higher lane holds the smaller d in a left sweep). */
+  def treeLevels(xs: Seq[Best], levels: Int, left: Bool): Seq[Best] =
+    (0 until levels).foldLeft(xs)((ys, _) => ys.grouped(2).map(g => merge(g(0), g(1), left)).toSeq)
 
-  // lane k evaluates target column c1 = jL + k (and its partner c1 + 2r, in this block or the one above):
-  // left sweep d = maxC1 - c1 (the reference is u - r), right sweep d = c1 - minC1 (the reference is uRight - r)
-  val laneBest = (0 until lanes).map { k =>
-    val cost = (0 until 2).map { kind =>
-      val cur = tgtView(kind)
+  // A: per lane (target column c1 = jL + k and its partner c1 + 2r, in this block or the one issued before) the four
+  // SADs, each as four quarter-descriptor SADs; whether c1 is in the sweep and its d (left d = maxC1 - c1, right
+  // c1 - minC1)
+  private val sadParts = 4
+  private val partBits = 8 * p.descriptorBytes / sadParts
+  require(partBits * sadParts == 8 * p.descriptorBytes)
+  private def partSads(x: UInt, y: UInt): Seq[UInt] =
+    (0 until sadParts).map(i => sad(x((i + 1) * partBits - 1, i * partBits), y((i + 1) * partBits - 1, i * partBits)))
+  val aValid = RegNext(s0Valid, false.B)
+  val aTag = RegEnable(s0Tag, s0Valid)
+  val aSad = (0 until lanes).map { k =>
+    RegEnable(VecInit((0 until 2).flatMap { kind =>
+      val cur = data(kind)
       val partner = if (k + 2 * r < banks) cur(k + 2 * r) else prevBlock(kind)(k + 2 * r - banks)
-      sad(refLo(kind), cur(k)) +& sad(refHi(kind), partner)
-    }.reduce(_ +& _)
-    val c1 = Cat(s1Block, k.U(bankBits.W))
-    val inSweep = c1 >= s1MinC1 && c1 <= s1MaxC1
-    val d = Mux(s1Left, s1MaxC1 - c1, c1 - s1MinC1)(baseW - 1, 0)
-    best(Mux(inSweep, cost, costInf), d, costInf)
+      partSads(refLo(kind), cur(k)) ++ partSads(refHi(kind), partner)
+    }), s0Valid)
   }
-  // ascending d: lanes in reverse order for the left sweep; each later block holds higher d (left) or lower (right)
-  val blockBest = tree(laneBest.indices.map(k => Mux(s1Left, laneBest(lanes - 1 - k), laneBest(k))))
+  val aLane = (0 until lanes).map { k =>
+    val c1 = Cat(s0Block, k.U(bankBits.W))
+    val inSweep = c1 >= s0MinC1 && c1 <= s0MaxC1
+    val d = Mux(s0Tag.left, s0MaxC1 - c1, c1 - s0MinC1)(baseW - 1, 0)
+    (RegEnable(inSweep, s0Valid), RegEnable(d, s0Valid))
+  }
+  // B: lane costs
+  val bValid = RegNext(aValid, false.B)
+  val bTag = RegEnable(aTag, aValid)
+  val bBest = aSad.zip(aLane).map { case (sads, (inSweep, d)) =>
+    RegEnable(best(Mux(inSweep, SupportMatcher.sumTree(sads), costInf), d, costInf), aValid)
+  }
+  // C, E: the lane tree (ascending lanes, ties to the smaller d), about half of its levels each
+  private val levels = log2Ceil(lanes)
+  private val levelsC = (levels + 1) / 2
+  val cValid = RegNext(bValid, false.B)
+  val cTag = RegEnable(bTag, bValid)
+  val cBest = treeLevels(bBest, levelsC, bTag.left).map(RegEnable(_, bValid))
+  val eValid = RegNext(cValid, false.B)
+  val eTag = RegEnable(cTag, cValid)
+  val blockBest = RegEnable(treeLevels(cBest, levels - levelsC, cTag.left).head, cValid)
+  // merge: each later block holds higher d (left sweep) or lower d (right sweep)
   val running = Reg(new Best)
-  val merged = Mux(s1First, blockBest, Mux(s1Left, merge(running, blockBest), merge(blockBest, running)))
-  when(s1Valid) { running := merged }
-  val final_ = Mux(s1Valid, merged, running)
-  dRight := final_.d1(p.dispBits - 1, 0)
+  val takeBlock = eTag.first || bWins(running, blockBest, !eTag.left) // the merged d1 is the block's
+  val merged = Mux(eTag.first, blockBest, merge(running, blockBest, !eTag.left))
+  when(eValid) { running := merged }
+  val leftDone = eValid && eTag.last && eTag.left //   this cycle's merged is the left sweep's result
+  val rightDone = eValid && eTag.last && !eTag.left // ... the right sweep's
+
+  // ---- the node whose right sweep is done waits here for its decision and the output register ----
+  val pendBusy = RegInit(false.B)
+  val pendStage = RegInit(0.U(2.W)) // 1: its right result is in, 2: the decision is in pendOk
+  val pendFlags = Reg(Vec(3, Bool())) // sof, eol, eof
+  val pendLeft = Reg(new Best) //  the left sweep's result
+  val pendRight = Reg(new Best)
+  val pendTexL = Reg(Bool())
+  val pendTexR = Reg(Bool())
+  val pendRangeOk = Reg(Bool()) // the right sweep's range reaches supportMinRange
+  val pendOk = Reg(Bool())
+  val curLeft = Reg(new Best) //   the current node's left result and texture bit
+  val curTexL = Reg(Bool())
+  val prefetch = RegInit(false.B) // the next node's references are still to be read in this wait
+  val prefetched = RegInit(false.B) // they are read, and the next node is searched
 
   // ---- output register ----
   val outValid = RegInit(false.B)
@@ -275,27 +365,65 @@ class SupportMatcher(p: ElasParams) extends Module {
   io.out.valid := outValid
   io.out.bits := outBits
 
-  /** Emits the current node (when the output register is free) and moves to the next one. */
-  def emit(value: SInt): Unit = when(outFree) {
-    val eol = walkU === width - 1.U
-    val eof = eol && walkV === height - 1.U
+  val nodeEol = walkU === width - 1.U
+  val nodeEof = nodeEol && walkV === height - 1.U
+  val nodeSof = walkU === 0.U && walkV === 0.U
+  def output(value: SInt, sof: Bool, eol: Bool, eof: Bool): Unit = {
     outValid := true.B
     outBits.data := value
-    outBits.sof := walkU === 0.U && walkV === 0.U
+    outBits.sof := sof
     outBits.eol := eol
     outBits.eof := eof
+  }
+  /** Moves the walker to the next node. */
+  def advance(): Unit = {
     state := sNode
-    when(eol) {
+    when(nodeEol) {
       walkU := 0.U
       walkV := Mux(walkV +& step.U < height, walkV + step.U, height - 1.U)
       walkSlot := Mux(walkSlot === (slots - 1).U, 0.U, walkSlot + 1.U)
-      when(eof) { state := sIdle; walkBusy := false.B }
+      when(nodeEof) { state := sIdle; walkBusy := false.B }
     }.otherwise {
       walkU := Mux(walkU +& step.U < width, walkU + step.U, width - 1.U)
     }
   }
+  /** Sets up the left sweep of node u (its references are read or prefetched). */
+  def startLeft(u: UInt): Unit = {
+    val dhiL = dhiLOf(u)
+    phaseLeft := true.B; uRef := u
+    refC0 := u - r.U
+    refTop := (u - r.U) +& p.dispMax.U
+    refTop2 := u +& (r + p.dispMax).U
+    sweepStart := true.B
+    minC1 := u - r.U - dhiL
+    maxC1 := u - r.U
+    j := blockOf(u + r.U)
+    jLo := blockOf(u - r.U - dhiL)
+    state := sSweep
+  }
   val none = (-1).S((p.dispBits + 1).W)
-  def dispMin(a: UInt): UInt = Mux(a > p.dispMax.U, p.dispMax.U, a)
+  def ratioOk(b: Best): Bool = (b.e1 * 100.U) < (b.e2 * p.supportThresholdPercent.U)
+
+  // The left decision's right sweep setup for one d1 (both candidates are computed, the merge picks one).
+  class RightSetup extends Bundle {
+    val c0 = UInt(colW.W) //   u' - r, u' = u - d1
+    val maxC1 = UInt(colW.W) // u' - r + min(W - 1 - margin - u', dispMax)
+    val j = UInt(blockW.W)
+    val addr = Vec(banks, UInt(log2Ceil(2 * viewWords).W))
+  }
+  def rightSetup(d1: UInt): RightSetup = {
+    val s = Wire(new RightSetup)
+    val d = d1(p.dispBits - 1, 0)
+    s.c0 := refC0 - d
+    val top = refTop - d
+    val top2 = refTop2 - d
+    s.maxC1 := Mux(top > rightLimit, rightLimit, top)(colW - 1, 0)
+    s.j := blockOf(Mux(top2 > rightLimit2, rightLimit2, top2))
+    for (b <- 0 until banks) s.addr(b) := rowAddress(1.U, walkSlot, bankWord(s.c0, b))
+    s
+  }
+  val rightNext = Mux(takeBlock, rightSetup(blockBest.d1), rightSetup(running.d1))
+  val decideLeft = state === sWait && leftDone
 
   switch(state) {
     is(sIdle) {
@@ -305,45 +433,86 @@ class SupportMatcher(p: ElasParams) extends Module {
       }
     }
     is(sNode) {
-      val dhiL = dispMin(walkU - margin.U)
-      when(!nodeActive || dhiL < p.supportMinRange.U) {
-        when(rowReady) { emit(none) }
-      }.elsewhen(rowReady) {
-        phaseLeft := true.B; uRef := walkU
-        startSweep(walkU)
-        minC1 := walkU - r.U - dhiL
-        maxC1 := walkU - r.U
-        j := blockOf(walkU + r.U)
-        jLo := blockOf(walkU - r.U - dhiL)
-      }
-    }
-    is(sRefHi) { state := sSweep }
-    is(sSweep) {
-      sweepStart := false.B
-      j := j - 1.U
-      when(j === jLo) { state := sDecide }
-    }
-    is(sDecide) {
-      val texOk = Mux(phaseLeft, texBits(0), texBits(1))
-      val accept = texOk && (final_.e1 * 100.U) < (final_.e2 * p.supportThresholdPercent.U)
-      val d1 = final_.d1(p.dispBits - 1, 0)
-      when(phaseLeft) {
-        val dhiR = dispMin(width - (1 + margin).U - uRight)
-        when(!accept || dhiR < p.supportMinRange.U) {
-          emit(none)
-        }.otherwise {
-          dLeft := d1; uRef := uRight; phaseLeft := false.B
-          startSweep(uRight)
-          minC1 := uRight - r.U
-          maxC1 := uRight - r.U + dhiR
-          j := blockOf(uRight + r.U + dhiR)
-          jLo := blockOf(uRight - r.U)
+      readReference(false.B, walkU - r.U) // the node's references, used if it is searched (keeps the test off the address)
+      when(!searched(walkU)) {
+        // emitted here, after the previous node's decision
+        when(rowReady && outFree && !pendBusy) {
+          output(none, nodeSof, nodeEol, nodeEof)
+          advance()
         }
-      }.otherwise {
-        val diff = Mux(dLeft > d1, dLeft - d1, d1 - dLeft)
-        emit(Mux(accept && diff <= p.lrThreshold.U, dLeft.zext, none))
+      }.elsewhen(rowReady) {
+        refRead := true.B
+        startLeft(walkU)
       }
     }
+    is(sSweep) {
+      when(issue) {
+        sweepStart := false.B
+        j := j - 1.U
+        when(j === jLo) {
+          when(phaseLeft) {
+            state := sWait
+            prefetch := true.B
+          }.otherwise { // hand the node to the decision and go on with the next one
+            pendBusy := true.B
+            pendFlags := VecInit(nodeSof, nodeEol, nodeEof)
+            pendLeft := curLeft
+            pendTexL := curTexL
+            pendRangeOk := maxC1 - minC1 >= p.supportMinRange.U
+            advance()
+            when(prefetched) {
+              startLeft(uNext)
+              copyNext := true.B
+              prefetched := false.B
+            }
+          }
+        }
+      }
+    }
+    is(sWait) { // the left result is 5 cycles behind its last block; the next node's references are read meanwhile
+      when(prefetch) {
+        prefetch := false.B
+        readReference(false.B, uNext - r.U)
+        when(!nodeEol && searched(uNext)) {
+          nextRead := true.B
+          prefetched := true.B
+        }
+      }
+      when(leftDone) {
+        // the right sweep (reference u' = u - d1) starts at once; a rejected left result is dropped at the decision
+        curLeft := merged
+        curTexL := texBits(0) // read at uRef = u
+        phaseLeft := false.B
+        uRef := uRef - merged.d1(p.dispBits - 1, 0)
+        readView := true.B
+        readC0 := rightNext.c0
+        refRead := true.B
+        sweepStart := true.B
+        minC1 := rightNext.c0
+        maxC1 := rightNext.maxC1
+        j := rightNext.j
+        jLo := blockOf(rightNext.c0)
+        state := sSweep
+      }
+    }
+  }
+  when(decideLeft) { bankAddr := rightNext.addr } // the right references, u' - r .. u' + r
+  // the last right block of the next node waits until this node's decision has left
+  when(state === sSweep && !phaseLeft && j === jLo && pendBusy) { hold := true.B }
+
+  // decision of the pending node: its right result, then the tests, then the output register
+  when(RegNext(state === sSweep && issue && !phaseLeft && j === jLo, false.B)) { pendTexR := texBits(1) } // at u'
+  when(rightDone) { pendRight := merged; pendStage := 1.U }
+  when(pendStage === 1.U) {
+    val diff = Mux(pendLeft.d1 > pendRight.d1, pendLeft.d1 - pendRight.d1, pendRight.d1 - pendLeft.d1)
+    pendOk := pendTexL && ratioOk(pendLeft) && pendRangeOk && pendTexR && ratioOk(pendRight) &&
+      diff <= p.lrThreshold.U
+    pendStage := 2.U
+  }
+  when(pendStage === 2.U && outFree) {
+    output(Mux(pendOk, pendLeft.d1(p.dispBits - 1, 0).zext, none), pendFlags(0), pendFlags(1), pendFlags(2))
+    pendBusy := false.B
+    pendStage := 0.U
   }
 }
 
@@ -361,8 +530,8 @@ object SupportMatcher {
   /** Bits of a cost: 4 descriptors x 16 bytes x 255, plus room for the "no disparity" value above it. */
   def costBits(p: ElasParams): Int = log2Ceil(4 * p.descriptorBytes * 255 + 2)
 
-  /** Cycles of the search for one active node with left/right ranges dhiL/dhiR at the worst block alignment: node
-    * start, per sweep a second reference read, its blocks and a decision cycle (ElasParams.supportNodeCycles).
+  /** Cycles of the search for one searched node with left/right ranges dhiL/dhiR at the worst block alignment: the
+    * sweeps' blocks, the wait for the left result and the right reference read (ElasParams.supportNodeCycles).
     */
   def nodeCycles(p: ElasParams, dhiL: Int, dhiR: Int): Int =
     ElasParams.supportOverheadCycles + ElasParams.supportSweepCycles(dhiL, p.windowRadius, p.supportLanesUsed) +
