@@ -313,16 +313,23 @@ def guarded(design, module, kind, salt, args, runner):
                 "seconds": {} if kind == "ecp5" else 0}
 
 
-def modules_of(design, top, only):
-    """The stage modules in the order the top instantiates them (memory wrappers aside), then the top."""
+def modules_of(design, top, only, expand=()):
+    """The stage modules in the order the top instantiates them (memory wrappers aside), then the top. A stage in
+    `expand` (one too large to place on the part) is followed by its own submodules, each a row of its own."""
     order = []
     for typ, _inst in design.instances[top]:
         if typ not in order and not design.is_memory_module(typ):
             order.append(typ)
     counts = design.stages(top)
-    rows = [(m, counts[m]) for m in order]
+    rows = []
+    for m in order:
+        rows.append((m, counts[m]))
+        if m in expand:
+            for typ, _inst in design.instances[m]:
+                if not design.is_memory_module(typ) and typ not in [r[0] for r in rows]:
+                    rows.append((typ, counts[m] * design.stages(m)[typ]))
     if only:
-        unknown = [m for m in only if m not in counts and m != top]
+        unknown = [m for m in only if m not in counts and m != top and m not in [r[0] for r in rows]]
         if unknown:
             raise FlowError(f"not a stage of {top}: {', '.join(unknown)} (stages: {', '.join(order)})")
         rows = [(m, n) for m, n in rows if m in only]
@@ -422,7 +429,8 @@ def markdown(report):
         "## Results",
         "",
         f"ECP5 target {report['target_mhz']:g} MHz. Sorted as the top instantiates the stages; the last row is the "
-        "whole accelerator.",
+        "whole accelerator. A stage too large to place and route in reasonable time (`PostProcess`, see "
+        "`TIMING_EXPAND`) is followed by its own submodules, each placed on its own in the same wrapper.",
         "",
         "| module | inst | placed at | LUT levels | STA ns (7-series, logic only) | ECP5 fmax MHz | ECP5 critical path "
         "(start -> end) | TRELLIS_COMB | FF | DP16KD | MULT18X18D | wrapper FF | wall s |",
@@ -557,6 +565,7 @@ def main():
     ap.add_argument("--freq", type=float, default=200.0)
     ap.add_argument("--modules", default="", help="comma-separated stage modules (default: every stage)")
     ap.add_argument("--no-top", action="store_true", help="skip the whole-top row")
+    ap.add_argument("--expand", default="", help="comma-separated stages whose submodules get rows of their own")
     ap.add_argument("--first", default="", help="comma-separated modules to run before the others (default: the "
                     "smallest first, the top last)")
     ap.add_argument("--cached-only", action="store_true",
@@ -581,7 +590,7 @@ def main():
                     fh.write(text)
         tools = tool_versions(args.venv)
         only = [m for m in args.modules.split(",") if m]
-        rows = modules_of(design, args.top, only)
+        rows = modules_of(design, args.top, only, [m for m in args.expand.split(",") if m])
         if not args.no_top:
             rows.append((args.top, 1))
         salt_x = f"{synth_flow.SYNTH_CMD}|{tools['yosys_xc7']}"
