@@ -53,7 +53,7 @@ import chisel3.util._
   *
   * Pipeline (lockstep, stalls as a whole): A (window shift, cover tests, grid read) -> A1..A3 (owner) -> B -> B1 (texture SAD,
   * plane offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi, candidates, ring reads; one
-  * cycle per candidate group) -> D (ring data) -> D2 (two half-descriptor SADs per lane) -> E (cost with the prior) -> F -> the first-minimum tree, two compare
+  * cycle per candidate group) -> D (ring data) -> D2 (four quarter-descriptor SADs per lane) -> E (cost with the prior) -> F -> the first-minimum tree, two compare
   * levels per register ([[DenseMatcher.treeRegisters]]) -> output register. Each register step is a few LUTs deep
   * (docs/timing.md).
   */
@@ -82,6 +82,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   private val groups = p.denseGroups //        cycles per pixel of candidate evaluation (lanes x groups >= candidates)
   private val ringDepth = DenseMatcher.ringDepth(p)
   private val ringW = log2Ceil(ringDepth)
+  private val sadParts = 4 //          each lane's SAD in four registered parts (DenseMatcher.scala, stage D2)
   private val costW = 14 //             SAD16 <= 4080 plus a prior >= -4096 fits 14 signed bits
   require(p.priorTable.take(R + 1).forall(v => v >= -(1 << 12) && v < (1 << 12)),
     s"priorTable entries 0..planeRadius must lie in -4096..4095 (got ${p.priorTable.take(R + 1)})")
@@ -736,7 +737,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
   class Sad extends Bundle {
     val valid = Bool()
-    val halves = Vec(2, UInt(DescriptorSad.bits(p.descriptorBytes).W)) // SADs of the descriptor's two halves
+    val parts = Vec(sadParts, UInt(DescriptorSad.bits(p.descriptorBytes).W)) // SADs of the descriptor's quarters
     val d = UInt(p.dispBits.W)
     val prior = SInt(costW.W)
   }
@@ -757,18 +758,16 @@ class DenseMatcher(p: ElasParams) extends Module {
     d2 := dReg
     for (view <- 0 until 2; k <- 0 until lanes) d2Targets(view)(k) := targets(view)(k)
   }
-  // Each lane's SAD as two half-descriptor SADs (a 16-byte adder tree is one LUT level too deep), summed in E -> F.
-  private val lowBytes = p.descriptorBytes / 2
-  def halfSads(x: UInt, y: UInt): Seq[UInt] = {
-    def unit(lo: Int, bytes: Int): UInt = {
-      val u = Module(new DescriptorSad(bytes))
-      u.io.x := x(8 * (lo + bytes) - 1, 8 * lo)
-      u.io.y := y(8 * (lo + bytes) - 1, 8 * lo)
-      u.io.sad
-    }
-    Seq(unit(0, lowBytes), unit(lowBytes, p.descriptorBytes - lowBytes))
+  // Each lane's SAD as four quarter-descriptor SADs (a 16- or 8-byte adder tree maps to 7 LUT levels), summed with
+  // the prior in E -> F.
+  def partSads(x: UInt, y: UInt): Seq[UInt] = (0 until sadParts).map { part =>
+    val (lo, hi) = (part * p.descriptorBytes / sadParts, (part + 1) * p.descriptorBytes / sadParts)
+    val u = Module(new DescriptorSad(hi - lo))
+    u.io.x := x(8 * hi - 1, 8 * lo)
+    u.io.y := y(8 * hi - 1, 8 * lo)
+    u.io.sad
   }
-  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => halfSads(d2.refs(view), d2Targets(view)(k))))
+  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => partSads(d2.refs(view), d2Targets(view)(k))))
   when(adv) {
     eValid := d2Valid
     eTail := tailOf(d2)
@@ -777,7 +776,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       eSad(view)(k).valid := x.valid
       eSad(view)(k).d := x.d
       eSad(view)(k).prior := x.prior
-      for (h <- 0 until 2) eSad(view)(k).halves(h) := laneSad(view)(k)(h)
+      for (h <- 0 until sadParts) eSad(view)(k).parts(h) := laneSad(view)(k)(h)
     }
   }
   val fValid = RegInit(false.B)
@@ -790,7 +789,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       val x = eSad(view)(k)
       fCand(view)(k).valid := x.valid
       fCand(view)(k).d := x.d
-      fCand(view)(k).cost := (x.halves(0) +& x.halves(1)).zext + x.prior
+      fCand(view)(k).cost := x.parts.reduceTree(_ +& _)(DescriptorSad.bits(p.descriptorBytes) - 1, 0).zext + x.prior
     }
   }
 
