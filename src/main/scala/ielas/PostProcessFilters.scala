@@ -415,8 +415,8 @@ class FilterTaps(p: ElasParams, bits: Int, above: Int, below: Int, vertical: Boo
 /** Post step 3: adaptive mean, one direction (docs/ALGORITHM.md post 3). Horizontal: taps p-4..p+3 of the row for
   * 4 <= p <= W-4, from a [[RowWindow]] over the stream; vertical: rows v-4..v+3 for 4 <= v <= H-4 (window rows
   * read from the ring at the same column).
-  * A stall pipeline of 7 register stages (all advance when the output register can load): taps; differences to the
-  * centre; weights and weighted taps; pair sums; numerator and denominator; dividend and reciprocal; product.
+  * A stall pipeline of 7 register stages (all advance when the output register can load): taps; distances to the
+  * centre; weights; pair sums of the weighted taps; numerator and denominator; dividend and reciprocal; product.
   * Buffers: horizontal 9 pixel registers; vertical 9 slots x maxWidth x 16 (block RAM).
   */
 class PostMean(p: ElasParams, vertical: Boolean) extends Module {
@@ -433,19 +433,18 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
   private def stValid(x: Bool): Bool = RegEnable(x, false.B, adv)
   // 1: taps
   val v1 = stValid(go); val x1 = st(VecInit(t.taps.map(_.asSInt))); val r1 = st(t.inRange); val f1 = st(t.framing)
-  // 2: differences to the centre
+  // 2: distances to the centre
   val v2 = stValid(v1); val x2 = st(x1); val r2 = st(r1); val f2 = st(f1)
-  val d2 = st(VecInit(x1.map(xi => xi - x1(4))))
-  // 3: weights 0 / 2 / 4 and the weighted taps
-  val weights = x2.zip(d2).map { case (xi, diff) =>
-    val a = diff.abs
+  val d2 = st(VecInit(x1.map(xi => (xi - x1(4)).abs)))
+  // 3: weights 0 / 2 / 4
+  val weights = x2.zip(d2).map { case (xi, a) =>
     Mux(xi < 0.S, 0.U(3.W), Mux(a < 32.S, 4.U(3.W), Mux(a < 128.S, 2.U(3.W), 0.U(3.W))))
   }
-  val v3 = stValid(v2); val c3 = st(x2(4)); val r3 = st(r2); val f3 = st(f2)
+  val v3 = stValid(v2); val x3 = st(x2); val r3 = st(r2); val f3 = st(f2)
   val w3 = st(VecInit(weights))
-  val n3 = st(VecInit(x2.zip(weights).map { case (xi, wi) => Mux(wi === 0.U, 0.U, xi.asUInt(15, 0) * wi) }))
-  // 4: pair sums
-  val v4 = stValid(v3); val c4 = st(c3); val r4 = st(r3); val f4 = st(f3)
+  // 4: pair sums of the weighted taps and of the weights
+  val n3 = x3.zip(w3).map { case (xi, wi) => Mux(wi === 0.U, 0.U, xi.asUInt(15, 0) * wi) }
+  val v4 = stValid(v3); val c4 = st(x3(4)); val r4 = st(r3); val f4 = st(f3)
   val n4 = st(VecInit(n3.grouped(2).map(g => g(0) +& g(1)).toSeq))
   val w4 = st(VecInit(w3.grouped(2).map(g => g(0) +& g(1)).toSeq))
   // 5: numerator and denominator
