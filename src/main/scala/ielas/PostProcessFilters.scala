@@ -300,7 +300,7 @@ class PostColumnGaps(p: ElasParams) extends Module {
   val ringIn = Wire(Decoupled(new PostBeat(16)))
   val s1 = RegInit(0.U.asTypeOf(Valid(new In1)))
   val s2 = RegInit(0.U.asTypeOf(Valid(new In2)))
-  val adv = !s2.valid || ringIn.ready
+  val adv = !s2.valid || ringIn.ready // the input stages advance
   io.in.ready := adv
   // the input's row and column (as the ring counts them)
   val inCol = RegInit(0.U(p.colBits.W)); val inRow = RegInit(0.U(p.rowBits.W))
@@ -365,18 +365,26 @@ class PostColumnGaps(p: ElasParams) extends Module {
   val o = new PostFilters.OutReg(16, io.out)
   val ou = ring.outCol
   val w = ring.centre
-  val wValue = w(15, 0).asSInt
-  val wFill = wValue
-  val wEnd = w(15 + rW, 16)
-  val wMark = w(wordBits - 1)
   val a = activeMem.read(ring.outColNext)
-  val aOn = ring.v =/= 0.U && a(rW + 16) && ring.v < a(rW + 15, 16)
-  val value = Mux(wMark, wFill, Mux(aOn, a(15, 0).asSInt, wValue))
-  val go = ring.rowReady && o.canLoad
-  when(go) {
-    o.load(value, ring.v === 0.U && ou === 0.U, ring.atLastCol, ring.atLastCol && ring.isLast, ring.isLast, ring.width)
-    activeMem.write(ou, Mux(wMark, Cat(true.B, wEnd, wFill.asUInt), Mux(ring.v === 0.U, 0.U, a)))
-    ring.advanceOut()
+  // One register stage (stall pipeline) between the memories and the value: the ring word, the column's running fill,
+  // the row and the framing. The running fill of column u is written back from that stage; the next read of column
+  // u (next row) comes a row later.
+  val oAdv = o.canLoad
+  val goOut = ring.rowReady && oAdv
+  when(goOut) { ring.advanceOut() }
+  private def st[T <: Data](x: T): T = RegEnable(x, oAdv)
+  val ov = RegEnable(goOut, false.B, oAdv)
+  val w1 = st(w); val a1 = st(a); val v1 = st(ring.v); val u1 = st(ou)
+  val sof1 = st(ring.v === 0.U && ou === 0.U); val eol1 = st(ring.atLastCol); val isLast1 = st(ring.isLast)
+  val width1 = st(ring.width)
+  val wValue1 = w1(15, 0).asSInt
+  val wEnd1 = w1(15 + rW, 16)
+  val wMark1 = w1(wordBits - 1)
+  val aOn = v1 =/= 0.U && a1(rW + 16) && v1 < a1(rW + 15, 16)
+  val value = Mux(wMark1, wValue1, Mux(aOn, a1(15, 0).asSInt, wValue1)) // a marked word's value is its fill
+  when(oAdv && ov) {
+    o.load(value, sof1, eol1, eol1 && isLast1, isLast1, width1)
+    activeMem.write(u1, Mux(wMark1, Cat(true.B, wEnd1, wValue1.asUInt), Mux(v1 === 0.U, 0.U, a1)))
   }
 }
 
@@ -415,8 +423,9 @@ class FilterTaps(p: ElasParams, bits: Int, above: Int, below: Int, vertical: Boo
 /** Post step 3: adaptive mean, one direction (docs/ALGORITHM.md post 3). Horizontal: taps p-4..p+3 of the row for
   * 4 <= p <= W-4, from a [[RowWindow]] over the stream; vertical: rows v-4..v+3 for 4 <= v <= H-4 (window rows
   * read from the ring at the same column).
-  * A stall pipeline of 7 register stages (all advance when the output register can load): taps; distances to the
-  * centre; weights; pair sums of the weighted taps; numerator and denominator; dividend and reciprocal; product.
+  * A stall pipeline of 9 register stages (all advance when the output register can load): taps; distances to the
+  * centre; weights; pair sums of the weighted taps; numerator and denominator; dividend and reciprocal; the product
+  * as 4 partial products, then 3 terms, then whole (each partial product fits one 18 x 18 multiplier).
   * Buffers: horizontal 9 pixel registers; vertical 9 slots x maxWidth x 16 (block RAM).
   */
 class PostMean(p: ElasParams, vertical: Boolean) extends Module {
@@ -457,12 +466,21 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
   // 6: dividend and reciprocal
   val v6 = stValid(v5); val c6 = st(c5); val r6 = st(r5); val f6 = st(f5)
   val dividend = st(((num << 1) +& den)(20, 0)); val rcp = st(recip(den(5, 0))) // den <= 32
-  // 7: product
+  // 7: the four partial products of 17-bit halves (one 18 x 18 multiplier each)
   val v7 = stValid(v6); val c7 = st(c6); val r7 = st(r6); val f7 = st(f6)
-  val prod = st(dividend * rcp)
+  private def lo(x: UInt) = x(16, 0)
+  private def hi(x: UInt) = x(x.getWidth - 1, 17)
+  val pLL = st(lo(dividend) * lo(rcp)); val pLH = st(lo(dividend) * hi(rcp))
+  val pHL = st(hi(dividend) * lo(rcp)); val pHH = st(hi(dividend) * hi(rcp))
+  // 8: the middle terms summed
+  val v8 = stValid(v7); val c8 = st(c7); val r8 = st(r7); val f8 = st(f7)
+  val qL = st(pLL); val qM = st(pLH +& pHL); val qH = st(pHH)
+  // 9: the product
+  val v9 = stValid(v8); val c9 = st(c8); val r9 = st(r8); val f9 = st(f8)
+  val prod = st(qL +& (qM << 17) +& (qH << 34))
   val mean = (prod >> 27)(15, 0)
-  val value = Mux(r7 && c7 >= 0.S, mean.asSInt, c7)
-  when(adv && v7) { o.load(value, f7.sof, f7.eol, f7.eof, f7.lastRow, f7.cols) }
+  val value = Mux(r9 && c9 >= 0.S, mean.asSInt, c9)
+  when(adv && v9) { o.load(value, f9.sof, f9.eol, f9.eof, f9.lastRow, f9.cols) }
 }
 
 /** Post step 4: 7-tap median, one direction (docs/ALGORITHM.md post 4), 4th smallest with invalid taps as -1.
