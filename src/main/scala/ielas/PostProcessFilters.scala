@@ -39,6 +39,7 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   val metaRow: Vec[UInt] = Reg(Vec(B, UInt(p.rowBits.W)))
   val metaLast: Vec[Bool] = Reg(Vec(B, Bool()))
   val metaW: Vec[UInt] = Reg(Vec(B, UInt(p.colBits.W)))
+  private val metaWm1: Vec[UInt] = Reg(Vec(B, UInt(p.colBits.W))) // width - 1, for the output's last-column test
 
   // ---- input side ----
   /** Rows completed by the input minus rows completed by the output (0 .. B - above). */
@@ -70,6 +71,7 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
     metaRow(inSlot) := row
     metaLast(inSlot) := in.bits.lastRow
     metaW(inSlot) := in.bits.cols
+    metaWm1(inSlot) := in.bits.cols - 1.U
     inCol := col + 1.U
     when(in.bits.eol) {
       inCol := 0.U
@@ -101,7 +103,7 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
     else complete(0) && (complete(below) || early || (0 until below).map(k => complete(k) && lastAt(k)).reduce(_ || _))
   val v: UInt = RegNext(metaRow(relNext(0)), 0.U).suggestName("outRowV")
   val width: UInt = RegNext(metaW(relNext(0)), 0.U)
-  private val widthM1: UInt = RegNext(metaW(relNext(0)) - 1.U, 0.U)
+  private val widthM1: UInt = RegNext(metaWm1(relNext(0)), 0.U)
   val isLast: Bool = lastAt(0)
   /** outCol is the row's last column. */
   val atLastCol: Bool = outCol === widthM1
@@ -182,8 +184,8 @@ object PostFilters {
   * copied outwards over up to ipolGapWidth pixels. One row of look-ahead (the run's right end): a run table, keyed
   * by the run's first column, holds (end column, right value) written when the run ends.
   * Buffers: 2 slots x maxWidth x (dispBits + 1) + 2 x maxWidth x (colBits + dispBits + 1) run table, all block RAM
-  * (SyncReadMem) read one cycle ahead. The run table is read at the column after the last valid pixel the output
-  * has passed; no write can meet that read: the output reads a complete row, the input writes the next one.
+  * (SyncReadMem) read one cycle ahead. The run table is read at the column after the last valid pixel before the
+  * output's next pixel; no write can meet that read: the output reads a complete row, the input writes the next one.
   */
 class PostRowGaps(p: ElasParams) extends Module {
   private val vW = p.dispBits + 1
@@ -222,14 +224,15 @@ class PostRowGaps(p: ElasParams) extends Module {
   val s = ring.outSlot
   val c = ring.centre.asSInt
   val outAny = Reg(Bool()); val outPrevPos = Reg(UInt(p.colBits.W)); val outPrevVal = Reg(SInt(vW.W))
-  val outPrevPosNext = WireDefault(outPrevPos)
-  outPrevPos := outPrevPosNext
   val pAny = u =/= 0.U && outAny
-  val entry = VecInit(runEnd.map(_.read(outPrevPosNext + 1.U)))(s)
+  // The run table entry an invalid pixel needs is at the column after the last valid pixel before it. Read one cycle
+  // ahead for the pixel after this one as if this one is taken (the address does not wait for the handshake): if this
+  // pixel is valid, at u + 1; else at the same column as for this pixel, which is also right while it waits.
+  val entry = VecInit(runEnd.map(_.read(Mux(c >= 0.S, u + 1.U, outPrevPos + 1.U))))(s)
   def x16(d: SInt): SInt = (d << 4).asSInt
   val go = ring.rowReady && adv
   when(go) {
-    when(c >= 0.S) { outAny := true.B; outPrevPosNext := u; outPrevVal := c }.elsewhen(u === 0.U) { outAny := false.B }
+    when(c >= 0.S) { outAny := true.B; outPrevPos := u; outPrevVal := c }.elsewhen(u === 0.U) { outAny := false.B }
     ring.advanceOut()
   }
   private def st[T <: Data](x: T): T = RegEnable(x, adv)
