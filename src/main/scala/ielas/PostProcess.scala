@@ -11,7 +11,9 @@ import chisel3.util._
   *   (filterAdaptiveMean) and/or [[PostMedian]] horizontal + vertical (filterMedian).
   * Latency in rows (steady state): (L + 2) + 1 + G + 3 = (L - 1) + G + 3 of the algorithm's look-ahead plus 4:
   * speckle's forward maps lag one row and its flattening one more (+ 3 over L - 1), and the row gap step needs its
-  * row complete (+ 1); the first mean / median pass starts 4 columns behind its input. See [[PostProcess.latencyRows]].
+  * row complete (+ 1); the first mean / median pass starts 4 columns behind its input.
+  * The steps' register stages add clock cycles, not rows (mean 9, median 2, row gaps 2, column gaps 3; the ring
+  * steps read a row being written 2 columns behind it). See [[PostProcess.latencyRows]].
   */
 class PostProcess(p: ElasParams) extends Module {
   private val vW = p.dispBits + 1

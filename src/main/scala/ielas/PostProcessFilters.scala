@@ -18,19 +18,19 @@ class PostBeat(bits: Int) extends Bundle {
 
 /** Row ring shared by the vertical post steps: B = above + below + 2 row slots of maxWidth words, one block-RAM
   * memory (SyncReadMem) per slot. The input writes rows in order; output pixel (v, u) is read once rows
-  * v .. v + below - 1 have arrived and row v + below up to column u (or the frame's last row is among them); with
+  * v .. v + below - 1 have arrived and row v + below up to column u + 1 (or the frame's last row is among them); with
   * below = 0, once row v is complete. The input stalls only when the slot it needs still holds a row the window reads.
   * Build it inside a Module; `word` is what a slot stores per pixel. The output side reads every slot at one column:
-  * the column it will hold next cycle ([[outColNext]], registered into the memories' read ports one cycle ahead);
-  * a write in that cycle to that column of a slot (the row being written, early, or a marker) is forwarded.
-  * Slots are wrapping counters (no `seq % B`).
+  * the column it will hold next cycle ([[outColNext]], registered into the memories' read ports one cycle ahead).
+  * No read that is used meets a write of the same cycle, so nothing is forwarded: a row being written is read only
+  * 2 columns behind the input (a column written in cycle t is read from t + 1 on), and markers go to columns the
+  * output has not reached in that row. Slots are wrapping counters (no `seq % B`); the input / output distance is one
+  * small counter ([[ahead]]) and the output row's metadata sits in registers, so the handshake logic stays shallow.
   */
 class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: DecoupledIO[PostBeat], inWord: UInt) {
   val B: Int = above + below + 2
   private val W = p.maxWidth
-  private val seqW = 16
   private val sW = log2Ceil(B)
-  private def seqGe(a: UInt, b: UInt): Bool = !(a - b)(seqW - 1)
   def wrapInc(s: UInt): UInt = Mux(s === (B - 1).U, 0.U, s + 1.U)
   /** (slot - d) mod B for 0 <= slot < B and 0 <= d < B. */
   def wrapSub(slot: UInt, d: UInt): UInt = Mux(slot >= d, slot - d, slot +& B.U - d)(sW - 1, 0)
@@ -39,46 +39,42 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   val metaRow: Vec[UInt] = Reg(Vec(B, UInt(p.rowBits.W)))
   val metaLast: Vec[Bool] = Reg(Vec(B, Bool()))
   val metaW: Vec[UInt] = Reg(Vec(B, UInt(p.colBits.W)))
+  private val metaWm1: Vec[UInt] = Reg(Vec(B, UInt(p.colBits.W))) // width - 1, for the output's last-column test
 
   // ---- input side ----
-  val inSeq: UInt = RegInit(0.U(seqW.W)) // rows completed
-  val inSlot: UInt = RegInit(0.U(sW.W)) // inSeq mod B
+  /** Rows completed by the input minus rows completed by the output (0 .. B - above). */
+  val ahead: UInt = RegInit(0.U(log2Ceil(B + 1).W))
+  val inSlot: UInt = RegInit(0.U(sW.W)) // (rows completed) mod B
   val inCol: UInt = RegInit(0.U(p.colBits.W))
   val inRow: UInt = RegInit(0.U(p.rowBits.W))
-  val outSeq: UInt = RegInit(0.U(seqW.W))
   val outCol: UInt = RegInit(0.U(p.colBits.W))
   /** outCol next cycle (the read address of every slot). */
   val outColNext: UInt = WireDefault(outCol)
   outCol := outColNext
-  // slot of row inSeq last held row inSeq - B; the window of row outSeq reaches back to outSeq - above
-  in.ready := seqGe(outSeq - above.U + B.U, inSeq + 1.U)
+  // the input writes row outSeq + ahead into the slot of row outSeq + ahead - B; the window reaches back to outSeq - above
+  in.ready := ahead <= (B - above - 1).U
   val col: UInt = Mux(in.bits.sof, 0.U, inCol)
   val row: UInt = Mux(in.bits.sof && inCol === 0.U, 0.U, inRow)
-  /** Marker write into an earlier slot (set by the step; slot must differ from inSlot). */
+  /** Marker write into an earlier slot at the input's column (set by the step; slot must differ from inSlot). */
   val extraWrite: Bool = WireDefault(false.B)
   val extraSlot: UInt = WireDefault(0.U(sW.W))
-  val extraCol: UInt = WireDefault(0.U(p.colBits.W))
   val extraWord: UInt = WireDefault(0.U(wordBits.W))
   val writeWord: UInt = WireDefault(inWord)
-  /** Every slot's word at column outCol (read one cycle ahead at outColNext, with the write of that cycle forwarded). */
-  val column: Vec[UInt] = VecInit(mems.zipWithIndex.map { case (m, s) => // one write port per slot
+  /** Every slot's word at column outCol (read one cycle ahead at outColNext). */
+  val column: Vec[UInt] = VecInit(mems.zipWithIndex.map { case (m, s) => // one write port per slot, always at `col`
     val here = in.fire && inSlot === s.U
-    val wen = here || extraWrite && extraSlot === s.U
-    val wAddr = Mux(here, col, extraCol)
-    val wData = Mux(here, writeWord, extraWord)
-    when(wen) { m.write(wAddr, wData) }
-    val hit = RegNext(wen && wAddr === outColNext, false.B)
-    val fwd = RegEnable(wData, wen)
-    Mux(hit, fwd, m.read(outColNext))
+    when(here || extraWrite && extraSlot === s.U) { m.write(col, Mux(here, writeWord, extraWord)) }
+    m.read(outColNext)
   })
+  val inRowDone: Bool = in.fire && in.bits.eol
   when(in.fire) {
     metaRow(inSlot) := row
     metaLast(inSlot) := in.bits.lastRow
     metaW(inSlot) := in.bits.cols
+    metaWm1(inSlot) := in.bits.cols - 1.U
     inCol := col + 1.U
     when(in.bits.eol) {
       inCol := 0.U
-      inSeq := inSeq + 1.U
       inSlot := wrapInc(inSlot)
       inRow := Mux(in.bits.lastRow, 0.U, row + 1.U)
     }
@@ -86,21 +82,31 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
 
   // ---- output side ----
   val outSlot: UInt = RegInit(0.U(sW.W)) // outSeq mod B
+  private val outRowDone = WireDefault(false.B)
+  ahead := ahead + inRowDone.asUInt - outRowDone.asUInt
   /** slotAt(k) = (outSeq + k) mod B, k = -above .. below, as registers that advance with outSeq. */
   private val rel: Map[Int, UInt] = (-above to below).map(k =>
     k -> (if (k == 0) outSlot else RegInit((((k % B) + B) % B).U(sW.W)))).toMap
+  private val relNext: Map[Int, UInt] = rel.map { case (k, r) => k -> Mux(outRowDone, wrapInc(r), r) }
   def slotAt(k: Int): UInt = rel(k)
-  private def complete(k: Int): Bool = seqGe(inSeq, outSeq + (k + 1).U)
-  private def lastAt(k: Int): Bool = metaLast(slotAt(k))
+  private def complete(k: Int): Bool = ahead >= (k + 1).U
+  // The metadata of rows outSeq .. outSeq + below, in registers reloaded every cycle from the slots they hold next
+  // cycle. Read only for complete rows, whose metadata was written by their first pixel (rows are >= 2 wide).
+  private val lastRel: Map[Int, Bool] = (0 to below).map(k => k -> RegNext(metaLast(relNext(k)), false.B)).toMap
+  private def lastAt(k: Int): Bool = lastRel(k)
   // Row v + below may still be arriving: column u of row v only needs column u of that row (vertical windows and
-  // the column pass's markers, which are written while that column is taken).
+  // the column pass's markers, which are written while that column is taken), read 2 columns behind the input.
+  private val inAhead2: Bool = inCol > outCol +& 1.U
   private val early: Bool = if (below == 0) false.B
-    else (0 until below).map(k => complete(k) && !lastAt(k)).reduce(_ && _) && inSeq === outSeq + below.U && inCol > outCol
+    else (0 until below).map(k => complete(k) && !lastAt(k)).reduce(_ && _) && ahead === below.U && inAhead2
   val rowReady: Bool = if (below == 0) complete(0)
     else complete(0) && (complete(below) || early || (0 until below).map(k => complete(k) && lastAt(k)).reduce(_ || _))
-  val v: UInt = metaRow(outSlot)
-  val width: UInt = metaW(outSlot)
-  val isLast: Bool = metaLast(outSlot)
+  val v: UInt = RegNext(metaRow(relNext(0)), 0.U).suggestName("outRowV")
+  val width: UInt = RegNext(metaW(relNext(0)), 0.U)
+  private val widthM1: UInt = RegNext(metaWm1(relNext(0)), 0.U)
+  val isLast: Bool = lastAt(0)
+  /** outCol is the row's last column. */
+  val atLastCol: Bool = outCol === widthM1
   /** Window rows v + k, k = -above .. below, at column outCol; with whether that row exists in the frame. */
   def window: Seq[(UInt, Bool)] = (-above to below).map(k => windowTap(k))
   private def windowTap(k: Int): (UInt, Bool) = {
@@ -108,7 +114,7 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
     val exists =
       if (k < 0) v >= (-k).U
       else if (k == 0) true.B
-      else (0 until k).map(j => !lastAt(j)).reduce(_ && _) && (complete(k) || inSeq === outSeq + k.U && inCol > outCol)
+      else (0 until k).map(j => !lastAt(j)).reduce(_ && _) && (complete(k) || ahead === k.U && inAhead2)
     (word, exists)
   }
   /** Row v at column outCol. */
@@ -116,10 +122,10 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   /** Call when output pixel (v, outCol) is taken. */
   def advanceOut(): Unit = {
     outColNext := outCol + 1.U
-    when(outCol === width - 1.U) {
+    when(atLastCol) {
       outColNext := 0.U
-      outSeq := outSeq + 1.U
-      for (k <- -above to below) rel(k) := wrapInc(rel(k))
+      outRowDone := true.B
+      for (k <- -above to below) rel(k) := relNext(k)
     }
   }
 }
@@ -178,8 +184,8 @@ object PostFilters {
   * copied outwards over up to ipolGapWidth pixels. One row of look-ahead (the run's right end): a run table, keyed
   * by the run's first column, holds (end column, right value) written when the run ends.
   * Buffers: 2 slots x maxWidth x (dispBits + 1) + 2 x maxWidth x (colBits + dispBits + 1) run table, all block RAM
-  * (SyncReadMem) read one cycle ahead. The run table is read at the column after the last valid pixel the output
-  * has passed; no write can meet that read: the output reads a complete row, the input writes the next one.
+  * (SyncReadMem) read one cycle ahead. The run table is read at the column after the last valid pixel before the
+  * output's next pixel; no write can meet that read: the output reads a complete row, the input writes the next one.
   */
 class PostRowGaps(p: ElasParams) extends Module {
   private val vW = p.dispBits + 1
@@ -210,38 +216,58 @@ class PostRowGaps(p: ElasParams) extends Module {
   when(io.in.fire && x < 0.S && startRow) { inAny := false.B }
   when(io.in.fire && io.in.bits.eol) { anyValid(ring.inSlot) := prevAny || x >= 0.S }
 
-  // output side
+  // output side: the per-pixel recurrence (last valid pixel -> run table read address) in one cycle, then a stall
+  // pipeline of 2 register stages (the pixel's inputs; the fill conditions and gap value) before the output register
   val o = new PostFilters.OutReg(16, io.out)
+  val adv = o.canLoad
   val u = ring.outCol
   val s = ring.outSlot
   val c = ring.centre.asSInt
   val outAny = Reg(Bool()); val outPrevPos = Reg(UInt(p.colBits.W)); val outPrevVal = Reg(SInt(vW.W))
-  val outPrevPosNext = WireDefault(outPrevPos)
-  outPrevPos := outPrevPosNext
   val pAny = u =/= 0.U && outAny
-  val entry = VecInit(runEnd.map(_.read(outPrevPosNext + 1.U)))(s)
-  val endCol = entry(p.colBits + vW - 1, vW)
-  val endVal = entry(vW - 1, 0).asSInt
+  // The run table entry an invalid pixel needs is at the column after the last valid pixel before it. Read one cycle
+  // ahead for the pixel after this one as if this one is taken (the address does not wait for the handshake): if this
+  // pixel is valid, at u + 1; else at the same column as for this pixel, which is also right while it waits.
+  val entry = VecInit(runEnd.map(_.read(Mux(c >= 0.S, u + 1.U, outPrevPos + 1.U))))(s)
   def x16(d: SInt): SInt = (d << 4).asSInt
-  val fill = Wire(SInt(16.W))
-  fill := -1.S
-  when(!anyValid(s)) { fill := -1.S }
-    .elsewhen(!pAny) {
-      if (p.addCorners) when(firstPos(s) - u <= gap.U) { fill := x16(firstVal(s)) }
-    }
-    .elsewhen(u > lastPos(s)) {
-      if (p.addCorners) when(u - lastPos(s) <= gap.U) { fill := x16(lastVal(s)) }
-    }
-    .otherwise {
-      when(endCol - outPrevPos - 1.U <= gap.U) { fill := PostFilters.gapValue(x16(outPrevVal), x16(endVal)) }
-    }
-  val value = Mux(c >= 0.S, x16(c), fill)
-  val go = ring.rowReady && o.canLoad
+  val go = ring.rowReady && adv
   when(go) {
-    o.load(value, ring.v === 0.U && u === 0.U, u === ring.width - 1.U, u === ring.width - 1.U && ring.isLast, ring.isLast, ring.width)
-    when(c >= 0.S) { outAny := true.B; outPrevPosNext := u; outPrevVal := c }.elsewhen(u === 0.U) { outAny := false.B }
+    when(c >= 0.S) { outAny := true.B; outPrevPos := u; outPrevVal := c }.elsewhen(u === 0.U) { outAny := false.B }
     ring.advanceOut()
   }
+  private def st[T <: Data](x: T): T = RegEnable(x, adv)
+  // 1: the pixel, its row's first / last valid pixel, the last valid pixel before it and the run table entry
+  val last = ring.atLastCol
+  val v1 = RegEnable(go, false.B, adv)
+  val c1 = st(c); val u1 = st(u); val pAny1 = st(pAny); val any1 = st(anyValid(s))
+  val firstPos1 = st(firstPos(s)); val firstVal1 = st(firstVal(s)); val lastPos1 = st(lastPos(s)); val lastVal1 = st(lastVal(s))
+  val prevPos1 = st(outPrevPos); val prevVal1 = st(outPrevVal); val entry1 = st(entry)
+  val sof1 = st(ring.v === 0.U && u === 0.U); val eol1 = st(last); val isLast1 = st(ring.isLast); val w1 = st(ring.width)
+  val endCol = entry1(p.colBits + vW - 1, vW)
+  val endVal = entry1(vW - 1, 0).asSInt
+  // 2: which fill applies, and its value
+  val v2 = RegEnable(v1, false.B, adv)
+  val c2 = st(c1); val any2 = st(any1); val pAny2 = st(pAny1)
+  val after2 = st(u1 > lastPos1)
+  val firstOk2 = st(firstPos1 - u1 <= gap.U); val lastOk2 = st(u1 - lastPos1 <= gap.U)
+  val runOk2 = st(endCol - prevPos1 - 1.U <= gap.U)
+  val firstFill2 = st(x16(firstVal1)); val lastFill2 = st(x16(lastVal1))
+  val gapFill2 = st(PostFilters.gapValue(x16(prevVal1), x16(endVal)))
+  val sof2 = st(sof1); val eol2 = st(eol1); val isLast2 = st(isLast1); val w2 = st(w1)
+  val fill = Wire(SInt(16.W))
+  fill := -1.S
+  when(!any2) { fill := -1.S }
+    .elsewhen(!pAny2) {
+      if (p.addCorners) when(firstOk2) { fill := firstFill2 }
+    }
+    .elsewhen(after2) {
+      if (p.addCorners) when(lastOk2) { fill := lastFill2 }
+    }
+    .otherwise {
+      when(runOk2) { fill := gapFill2 }
+    }
+  val value = Mux(c2 >= 0.S, x16(c2), fill)
+  when(adv && v2) { o.load(value, sof2, eol2, eol2 && isLast2, isLast2, w2) }
 }
 
 /** Post step 2b: the column gap pass over a G-row window, G = min(ipolGapWidth, ipolColumnWindow)
@@ -264,64 +290,145 @@ class PostColumnGaps(p: ElasParams) extends Module {
   // word: {marker, end row, value}; a marked pixel is invalid, so its value field holds the fill
   private val wordBits = 1 + rW + 16
   private def word(marker: Bool, end: UInt, value: SInt): UInt = Cat(marker, end.pad(rW), value.asUInt)
-  val ring = new RowRing(p, wordBits, 0, G, io.in, 0.U)
+  // The input passes 2 register stages before the ring (a stall pipeline: both advance when the ring takes a pixel
+  // or stage 2 is empty): 1 holds the pixel with its column's last valid pixel above; 2 the marker it writes.
+  class In1 extends Bundle {
+    val beat = new PostBeat(16); val r = UInt(p.rowBits.W); val lAny = Bool(); val lRow = UInt(p.rowBits.W)
+    val lVal = SInt(16.W)
+  }
+  class In2 extends Bundle {
+    val beat = new PostBeat(16); val writeWord = UInt(wordBits.W); val extra = Bool(); val back = UInt(rW.W)
+    val extraWord = UInt(wordBits.W)
+  }
+  val ringIn = Wire(Decoupled(new PostBeat(16)))
+  val s1 = RegInit(0.U.asTypeOf(Valid(new In1)))
+  val s2 = RegInit(0.U.asTypeOf(Valid(new In2)))
+  val adv = !s2.valid || ringIn.ready // the input stages advance
+  io.in.ready := adv
+  // the input's row and column (as the ring counts them)
+  val inCol = RegInit(0.U(p.colBits.W)); val inRow = RegInit(0.U(p.rowBits.W))
   // per column, input side: the last valid pixel above (row, value) in this frame
   val lastMem = SyncReadMem(p.maxWidth, UInt((1 + p.rowBits + 16).W))
   val x = io.in.bits.data
-  val r = ring.row
-  val u = ring.col
-  val lw = lastMem.read(Mux(io.in.fire, Mux(io.in.bits.eol, 0.U, u + 1.U), ring.inCol))
+  val r = Mux(io.in.bits.sof && inCol === 0.U, 0.U, inRow)
+  val u = Mux(io.in.bits.sof, 0.U, inCol)
+  val lw = lastMem.read(Mux(io.in.fire, Mux(io.in.bits.eol, 0.U, u + 1.U), inCol))
   val lAny = r =/= 0.U && lw(p.rowBits + 16)
   val lRow = lw(p.rowBits + 15, 16)
   val lVal = lw(15, 0).asSInt
-  val markRow = WireDefault(0.U(p.rowBits.W))
+  when(io.in.fire) {
+    lastMem.write(u, Mux(x >= 0.S, Cat(true.B, r, x.asUInt), Cat(lAny, lRow, lVal.asUInt)))
+    inCol := u + 1.U
+    when(io.in.bits.eol) { inCol := 0.U; inRow := Mux(io.in.bits.lastRow, 0.U, r + 1.U) }
+  }
+  when(adv) {
+    s1.valid := io.in.valid
+    s1.bits.beat := io.in.bits; s1.bits.r := r; s1.bits.lAny := lAny; s1.bits.lRow := lRow; s1.bits.lVal := lVal
+  }
+  // stage 1 -> 2: the marker (fill value, end row) for the first pixel of the run this pixel ends, back rows up
+  val x1 = s1.bits.beat.data
+  val r1 = s1.bits.r
+  val gapRows = r1 - s1.bits.lRow - 1.U // invalid rows between the last valid pixel above and this one
+  val markBack = WireDefault(0.U(rW.W)) // rows from the marked pixel down to this one
   val markEnd = WireDefault(0.U(rW.W))
   val markFill = WireDefault(0.S(16.W))
   val mark = WireDefault(false.B)
-  when(x >= 0.S) {
-    when(lAny) {
-      when(r - lRow - 1.U >= 1.U && r - lRow - 1.U <= G.U) {
-        mark := true.B; markRow := lRow + 1.U; markEnd := r; markFill := PostFilters.gapValue(lVal, x)
+  when(x1 >= 0.S) {
+    when(s1.bits.lAny) {
+      when(gapRows >= 1.U && gapRows <= G.U) {
+        mark := true.B; markBack := gapRows; markEnd := r1; markFill := PostFilters.gapValue(s1.bits.lVal, x1)
       }
     }.otherwise {
-      if (p.addCorners) when(r >= 1.U && r <= G.U) { mark := true.B; markRow := 0.U; markEnd := r; markFill := x }
+      if (p.addCorners) when(r1 >= 1.U && r1 <= G.U) { mark := true.B; markBack := r1; markEnd := r1; markFill := x1 }
     }
-  }.elsewhen(io.in.bits.lastRow && lAny) {
-    if (p.addCorners) when(r - lRow <= G.U) { mark := true.B; markRow := lRow + 1.U; markEnd := r +& 1.U; markFill := lVal }
+  }.elsewhen(s1.bits.beat.lastRow && s1.bits.lAny) {
+    if (p.addCorners) when(r1 - s1.bits.lRow <= G.U) {
+      mark := true.B; markBack := gapRows; markEnd := r1 +& 1.U; markFill := s1.bits.lVal
+    }
   }
-  val markHere = mark && markRow === r
-  ring.writeWord := word(markHere, markEnd, Mux(markHere, markFill, x))
-  ring.extraWrite := io.in.fire && mark && !markHere
-  ring.extraSlot := ring.wrapSub(ring.inSlot, r - markRow)
-  ring.extraCol := u
-  ring.extraWord := word(true.B, markEnd, markFill)
-  when(io.in.fire) {
-    lastMem.write(u, Mux(x >= 0.S, Cat(true.B, r, x.asUInt), Cat(lAny, lRow, lVal.asUInt)))
+  val markHere = mark && markBack === 0.U
+  when(adv) {
+    s2.valid := s1.valid
+    s2.bits.beat := s1.bits.beat
+    s2.bits.writeWord := word(markHere, markEnd, Mux(markHere, markFill, x1))
+    s2.bits.extra := mark && !markHere
+    s2.bits.back := markBack
+    s2.bits.extraWord := word(true.B, markEnd, markFill)
   }
+  ringIn.valid := s2.valid
+  ringIn.bits := s2.bits.beat
+  val ring = new RowRing(p, wordBits, 0, G, ringIn, 0.U)
+  ring.writeWord := s2.bits.writeWord
+  ring.extraWrite := ringIn.fire && s2.bits.extra
+  ring.extraSlot := ring.wrapSub(ring.inSlot, s2.bits.back)
+  ring.extraWord := s2.bits.extraWord
 
   // output side: the fill running down each column
   val activeMem = SyncReadMem(p.maxWidth, UInt((1 + rW + 16).W))
   val o = new PostFilters.OutReg(16, io.out)
   val ou = ring.outCol
   val w = ring.centre
-  val wValue = w(15, 0).asSInt
-  val wFill = wValue
-  val wEnd = w(15 + rW, 16)
-  val wMark = w(wordBits - 1)
   val a = activeMem.read(ring.outColNext)
-  val aOn = ring.v =/= 0.U && a(rW + 16) && ring.v < a(rW + 15, 16)
-  val value = Mux(wMark, wFill, Mux(aOn, a(15, 0).asSInt, wValue))
-  val go = ring.rowReady && o.canLoad
-  when(go) {
-    o.load(value, ring.v === 0.U && ou === 0.U, ou === ring.width - 1.U, ou === ring.width - 1.U && ring.isLast, ring.isLast, ring.width)
-    activeMem.write(ou, Mux(wMark, Cat(true.B, wEnd, wFill.asUInt), Mux(ring.v === 0.U, 0.U, a)))
-    ring.advanceOut()
+  // One register stage (stall pipeline) between the memories and the value: the ring word, the column's running fill,
+  // the row and the framing. The running fill of column u is written back from that stage; the next read of column
+  // u (next row) comes a row later.
+  val oAdv = o.canLoad
+  val goOut = ring.rowReady && oAdv
+  when(goOut) { ring.advanceOut() }
+  private def st[T <: Data](x: T): T = RegEnable(x, oAdv)
+  val ov = RegEnable(goOut, false.B, oAdv)
+  val w1 = st(w); val a1 = st(a); val v1 = st(ring.v); val u1 = st(ou)
+  val sof1 = st(ring.v === 0.U && ou === 0.U); val eol1 = st(ring.atLastCol); val isLast1 = st(ring.isLast)
+  val width1 = st(ring.width)
+  val wValue1 = w1(15, 0).asSInt
+  val wEnd1 = w1(15 + rW, 16)
+  val wMark1 = w1(wordBits - 1)
+  val aOn = v1 =/= 0.U && a1(rW + 16) && v1 < a1(rW + 15, 16)
+  val value = Mux(wMark1, wValue1, Mux(aOn, a1(15, 0).asSInt, wValue1)) // a marked word's value is its fill
+  when(oAdv && ov) {
+    o.load(value, sof1, eol1, eol1 && isLast1, isLast1, width1)
+    activeMem.write(u1, Mux(wMark1, Cat(true.B, wEnd1, wValue1.asUInt), Mux(v1 === 0.U, 0.U, a1)))
   }
+}
+
+/** The output framing of a filter step's pixel (what [[PostFilters.OutReg.load]] takes besides the value). */
+class PostFrame(colBits: Int) extends Bundle {
+  val sof = Bool(); val eol = Bool(); val eof = Bool(); val lastRow = Bool()
+  val cols = UInt(colBits.W)
+}
+
+/** The taps of a filter step's centre pixel, from a [[RowRing]] (vertical) or a [[RowWindow]] (horizontal):
+  * taps k = -before .. after, whether the window lies in the frame, whether the centre can be taken, its framing and
+  * the call that takes it.
+  */
+class FilterTaps(p: ElasParams, bits: Int, above: Int, below: Int, vertical: Boolean, in: DecoupledIO[PostBeat]) {
+  private def frame(sof: Bool, eol: Bool, eof: Bool, lastRow: Bool, cols: UInt): PostFrame = {
+    val f = Wire(new PostFrame(p.colBits))
+    f.sof := sof; f.eol := eol; f.eof := eof; f.lastRow := lastRow; f.cols := cols
+    f
+  }
+  val (taps, inRange, ready, framing, take): (Seq[UInt], Bool, Bool, PostFrame, () => Unit) =
+    if (vertical) {
+      val ring = new RowRing(p, bits, above, below, in, in.bits.data.asUInt)
+      val win = ring.window
+      val u = ring.outCol
+      val last = ring.atLastCol
+      (win.map(_._1), win.map(_._2).reduce(_ && _), ring.rowReady,
+        frame(ring.v === 0.U && u === 0.U, last, last && ring.isLast, ring.isLast, ring.width), () => ring.advanceOut())
+    } else {
+      val w = new RowWindow(p, bits, in)
+      val c = w.centre
+      ((-above to below).map(k => w.tap(k)), w.u >= above.U && w.u +& 4.U <= c.cols, w.ready,
+        frame(c.sof, c.eol, c.eof, c.lastRow, c.cols), () => w.take := true.B)
+    }
 }
 
 /** Post step 3: adaptive mean, one direction (docs/ALGORITHM.md post 3). Horizontal: taps p-4..p+3 of the row for
   * 4 <= p <= W-4, from a [[RowWindow]] over the stream; vertical: rows v-4..v+3 for 4 <= v <= H-4 (window rows
   * read from the ring at the same column).
+  * A stall pipeline of 9 register stages (all advance when the output register can load): taps; distances to the
+  * centre; weights; pair sums of the weighted taps; numerator and denominator; dividend and reciprocal; the product
+  * as 4 partial products, then 3 terms, then whole (each partial product fits one 18 x 18 multiplier).
   * Buffers: horizontal 9 pixel registers; vertical 9 slots x maxWidth x 16 (block RAM).
   */
 class PostMean(p: ElasParams, vertical: Boolean) extends Module {
@@ -330,45 +437,60 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
     val out = Decoupled(new PostBeat(16))
   })
   val o = new PostFilters.OutReg(16, io.out)
-  // taps, in range, whether the centre can be taken, output framing (sof, eol, eof, lastRow, width), take
-  val (taps, inRange, ready, frame, take) =
-    if (vertical) {
-      val ring = new RowRing(p, 16, 4, 3, io.in, io.in.bits.data.asUInt)
-      val win = ring.window
-      val u = ring.outCol
-      val last = u === ring.width - 1.U
-      (win.map(_._1.asSInt), win.map(_._2).reduce(_ && _), ring.rowReady,
-        (ring.v === 0.U && u === 0.U, last, last && ring.isLast, ring.isLast, ring.width), () => ring.advanceOut())
-    } else {
-      val w = new RowWindow(p, 16, io.in)
-      val c = w.centre
-      ((-4 to 3).map(k => w.tap(k).asSInt), w.u >= 4.U && w.u +& 4.U <= c.cols, w.ready,
-        (c.sof, c.eol, c.eof, c.lastRow, c.cols), () => w.take := true.B)
-    }
-  val c = taps(4)
-  val weights = taps.map { xi =>
-    val diff = (xi - c).abs
-    Mux(xi < 0.S, 0.U, Mux(diff < 32.S, 4.U, Mux(diff < 128.S, 2.U, 0.U)))
+  val t = new FilterTaps(p, 16, 4, 3, vertical, io.in)
+  val adv = o.canLoad
+  val go = t.ready && adv
+  when(go) { t.take() }
+  private def st[T <: Data](x: T): T = RegEnable(x, adv)
+  private def stValid(x: Bool): Bool = RegEnable(x, false.B, adv)
+  // 1: taps
+  val v1 = stValid(go); val x1 = st(VecInit(t.taps.map(_.asSInt))); val r1 = st(t.inRange); val f1 = st(t.framing)
+  // 2: distances to the centre
+  val v2 = stValid(v1); val x2 = st(x1); val r2 = st(r1); val f2 = st(f1)
+  val d2 = st(VecInit(x1.map(xi => (xi - x1(4)).abs)))
+  // 3: weights 0 / 2 / 4
+  val weights = x2.zip(d2).map { case (xi, a) =>
+    Mux(xi < 0.S, 0.U(3.W), Mux(a < 32.S, 4.U(3.W), Mux(a < 128.S, 2.U(3.W), 0.U(3.W))))
   }
-  val num = taps.zip(weights).map { case (xi, wi) => Mux(wi === 0.U, 0.U, xi.asUInt(15, 0) * wi) }.reduce(_ +& _)
-  val den = weights.reduce(_ +& _)
+  val v3 = stValid(v2); val x3 = st(x2); val r3 = st(r2); val f3 = st(f2)
+  val w3 = st(VecInit(weights))
+  // 4: pair sums of the weighted taps and of the weights
+  val n3 = x3.zip(w3).map { case (xi, wi) => Mux(wi === 0.U, 0.U, xi.asUInt(15, 0) * wi) }
+  val v4 = stValid(v3); val c4 = st(x3(4)); val r4 = st(r3); val f4 = st(f3)
+  val n4 = st(VecInit(n3.grouped(2).map(g => g(0) +& g(1)).toSeq))
+  val w4 = st(VecInit(w3.grouped(2).map(g => g(0) +& g(1)).toSeq))
+  // 5: numerator and denominator
+  val v5 = stValid(v4); val c5 = st(c4); val r5 = st(r4); val f5 = st(f4)
+  val num = st(n4.reduce(_ +& _)); val den = st(w4.reduce(_ +& _))
   require(16 * p.dispMax * 32 < (1 << 20), s"dispMax = ${p.dispMax}: the adaptive mean's dividend must stay below 2^21")
   // roundDiv(num, den) = floor((2 num + den) / (2 den)) without a divider: 2 den is one of 8, 12, .., 64 and the
   // dividend is below 2^21, so n / d = (n * ceil(2^27 / d)) >> 27 exactly (the error n (m d - 2^27) stays below 2^27).
   private val recip = VecInit((0 to 32).map(d => if (d >= 4) ((BigInt(1) << 27) + 2 * d - 1) / (2 * d) else BigInt(0)).map(_.U(25.W)))
-  val mean = ((((num << 1) +& den)(20, 0) * recip(den)) >> 27)(15, 0)
-  val value = Mux(inRange && c >= 0.S, mean(15, 0).asSInt, c)
-  val go = ready && o.canLoad
-  when(go) {
-    o.load(value, frame._1, frame._2, frame._3, frame._4, frame._5)
-    take()
-  }
+  // 6: dividend and reciprocal
+  val v6 = stValid(v5); val c6 = st(c5); val r6 = st(r5); val f6 = st(f5)
+  val dividend = st(((num << 1) +& den)(20, 0)); val rcp = st(recip(den(5, 0))) // den <= 32
+  // 7: the four partial products of 17-bit halves (one 18 x 18 multiplier each)
+  val v7 = stValid(v6); val c7 = st(c6); val r7 = st(r6); val f7 = st(f6)
+  private def lo(x: UInt) = x(16, 0)
+  private def hi(x: UInt) = x(x.getWidth - 1, 17)
+  val pLL = st(lo(dividend) * lo(rcp)); val pLH = st(lo(dividend) * hi(rcp))
+  val pHL = st(hi(dividend) * lo(rcp)); val pHH = st(hi(dividend) * hi(rcp))
+  // 8: the middle terms summed
+  val v8 = stValid(v7); val c8 = st(c7); val r8 = st(r7); val f8 = st(f7)
+  val qL = st(pLL); val qM = st(pLH +& pHL); val qH = st(pHH)
+  // 9: the product
+  val v9 = stValid(v8); val c9 = st(c8); val r9 = st(r8); val f9 = st(f8)
+  val prod = st(qL +& (qM << 17) +& (qH << 34))
+  val mean = (prod >> 27)(15, 0)
+  val value = Mux(r9 && c9 >= 0.S, mean.asSInt, c9)
+  when(adv && v9) { o.load(value, f9.sof, f9.eol, f9.eof, f9.lastRow, f9.cols) }
 }
 
 /** Post step 4: 7-tap median, one direction (docs/ALGORITHM.md post 4), 4th smallest with invalid taps as -1.
   * Horizontal for 3 <= u <= W-4 where the pixel is valid (a [[RowWindow]] over the stream); vertical for
-  * 3 <= v <= H-4 where the median's input was valid (carried as bit 16 of the horizontal result). Buffers:
-  * horizontal 9 pixel registers, vertical 8 slots x maxWidth (block RAM).
+  * 3 <= v <= H-4 where the median's input was valid (carried as bit 16 of the horizontal result). A stall pipeline of
+  * 2 register stages: taps; the pairwise comparisons. Buffers: horizontal 9 pixel registers, vertical 8 slots x
+  * maxWidth (block RAM).
   */
 class PostMedian(p: ElasParams, vertical: Boolean) extends Module {
   private val inBits = if (vertical) 17 else 16
@@ -377,31 +499,24 @@ class PostMedian(p: ElasParams, vertical: Boolean) extends Module {
     val out = Decoupled(new PostBeat(if (vertical) 16 else 17))
   })
   val o = new PostFilters.OutReg(if (vertical) 16 else 17, io.out)
-  val (taps, inRange, centreValid, centre, ready, frame, take) =
-    if (vertical) {
-      val ring = new RowRing(p, inBits, 3, 3, io.in, io.in.bits.data.asUInt)
-      val win = ring.window
-      val t = win.map(_._1(15, 0).asSInt)
-      val u = ring.outCol
-      val last = u === ring.width - 1.U
-      (t, win.map(_._2).reduce(_ && _), win(3)._1(16), t(3), ring.rowReady,
-        (ring.v === 0.U && u === 0.U, last, last && ring.isLast, ring.isLast, ring.width), () => ring.advanceOut())
-    } else {
-      val w = new RowWindow(p, inBits, io.in)
-      val c = w.centre
-      val t = (-3 to 3).map(k => w.tap(k).asSInt)
-      (t, w.u >= 3.U && w.u +& 4.U <= c.cols, t(3) >= 0.S, t(3), w.ready,
-        (c.sof, c.eol, c.eof, c.lastRow, c.cols), () => w.take := true.B)
-    }
-  // rank selection: element i is the 4th smallest if exactly 3 elements sort before it (ties by index)
-  val before = taps.indices.map(i => taps.indices.filter(_ != i).map(j =>
-    (if (j < i) taps(j) <= taps(i) else taps(j) < taps(i)).asUInt).reduce(_ +& _))
-  val med = Mux1H(before.map(_ === 3.U), taps)
-  val value = Mux(inRange && centreValid, med, centre)
-  val go = ready && o.canLoad
-  when(go) {
-    val data = if (vertical) value else Cat(centreValid, value.asUInt(15, 0)).asSInt
-    o.load(data, frame._1, frame._2, frame._3, frame._4, frame._5)
-    take()
+  val t = new FilterTaps(p, inBits, 3, 3, vertical, io.in)
+  val adv = o.canLoad
+  val go = t.ready && adv
+  when(go) { t.take() }
+  private def st[T <: Data](x: T): T = RegEnable(x, adv)
+  private def stValid(x: Bool): Bool = RegEnable(x, false.B, adv)
+  val centreValidNow = if (vertical) t.taps(3)(16) else t.taps(3)(15, 0).asSInt >= 0.S
+  // 1: taps
+  val v1 = stValid(go); val x1 = st(VecInit(t.taps.map(_(15, 0).asSInt))); val r1 = st(t.inRange)
+  val cv1 = st(centreValidNow); val f1 = st(t.framing)
+  // 2: rank selection: element i is the 4th smallest if exactly 3 elements sort before it (ties by index)
+  val lessThan = x1.indices.map(i => x1.indices.filter(_ != i).map(j => if (j < i) x1(j) <= x1(i) else x1(j) < x1(i)))
+  val v2 = stValid(v1); val x2 = st(x1); val r2 = st(r1); val cv2 = st(cv1); val f2 = st(f1)
+  val b2 = st(VecInit(lessThan.map(l => VecInit(l))))
+  val med = Mux1H(b2.map(l => PopCount(l) === 3.U), x2)
+  val value = Mux(r2 && cv2, med, x2(3))
+  when(adv && v2) {
+    val data = if (vertical) value else Cat(cv2, value.asUInt(15, 0)).asSInt
+    o.load(data, f2.sof, f2.eol, f2.eof, f2.lastRow, f2.cols)
   }
 }

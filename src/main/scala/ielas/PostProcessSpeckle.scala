@@ -38,7 +38,7 @@ import chisel3.util._
   * at the address its reader holds next cycle (D's row and column, A's pixel count, the beat each chain stage holds
   * next, B's node). The delay line, row above and F map reads never meet a write of the same cycle (D reads rows A
   * has finished, the row above was written frameW > 1 pixels earlier, C writes maps no beat in the chain still
-  * needs); P forwards one (A's last pixel can write node 0 as B starts that row). K, R and S stay combinational
+  * needs); P is written a cycle after A asks, from registers, and forwards that write and the one asked for this cycle (A's last pixel can write node 0 as B starts that row). K, R and S stay combinational
   * (LUT-RAM): A reads K, R and S in a chain within one clock (the class of the up pixel, its node, that node's
   * size). Row slots are wrapping counters, not `seq % n`.
   */
@@ -68,7 +68,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   private def satAdd(a: UInt, b: UInt): UInt = { val s = a +& b; Mux(s >= cap.U, cap.U, s)(sW - 1, 0) }
   private def similar(a: SInt, b: SInt): Bool = (a - b).abs.asUInt <= T.U
-  private def seqGe(a: UInt, b: UInt): Bool = !(a - b)(seqW - 1) // a >= b modulo 2^seqW
 
   // ---- per-row metadata ring, indexed by row sequence mod ND ----
   val metaVirtual = Reg(Vec(ND, Bool()))
@@ -102,7 +101,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // cycle (node 0 of the row just labelled, written by its last pixel) is forwarded.
   val pMem = SyncReadMem(2 * W, UInt(idW.W))
   val pWen = WireDefault(false.B); val pWAddr = WireDefault(0.U(16.W)); val pWData = WireDefault(0.U(idW.W))
-  when(pWen) { pMem.write(pWAddr, pWData) }
+  // the write reaches the memory a cycle later, from registers (A's labelling logic stays off the RAM's address pins)
+  val pwEn = RegNext(pWen, false.B); val pwAddr = RegEnable(pWAddr, pWen); val pwData = RegEnable(pWData, pWen)
+  when(pwEn) { pMem.write(pwAddr, pwData) }
   val kMem = Mem(3 * W, UInt(idW.W)) // 3 rows: B never waits for C to finish reading K_{k-2}
   val rMem = Mem(2 * W, UInt(idW.W))
   val sMem = Mem(3 * W, UInt(sW.W))
@@ -121,14 +122,28 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val aNext = RegInit(0.U(seqW.W)); val aBusy = RegInit(false.B)
   val aBusyN = WireDefault(aBusy); aBusy := aBusyN
   val aD = new Slot(ND); val a2 = new Slot(2); val a3 = new Slot(3)
-  def aInc(): Unit = { aNext := aNext + 1.U; aD.inc(); a2.inc(); a3.inc() }
+  val aIncW = WireDefault(false.B); val bIncW = WireDefault(false.B); val cIncW = WireDefault(false.B)
+  val dDoneIncW = WireDefault(false.B); val dNextIncW = WireDefault(false.B)
+  def aInc(): Unit = { aNext := aNext + 1.U; aIncW := true.B; aD.inc(); a2.inc(); a3.inc() }
   val bNext = RegInit(0.U(seqW.W)); val bBusy = RegInit(false.B)
   val bD = new Slot(ND); val b2 = new Slot(2); val b3 = new Slot(3)
   val cNext = RegInit(0.U(seqW.W)); val cBusy = RegInit(false.B)
   val cD = new Slot(ND); val c2 = new Slot(2); val c3 = new Slot(3); val cF = new Slot(NF)
   val dDone = RegInit(0.U(seqW.W)) // rows retired by D (left the last chain stage)
-  val bDoneCnt = bNext
-  val cDoneCnt = cNext
+  /** x - y of two row counters as a small signed register, updated with their increments: the engines' start
+    * conditions compare these (a few bits) instead of 16-bit sequence numbers. Engines stay within ND + 2 rows. */
+  private def diff(incX: Bool, incY: Bool): SInt = {
+    val r = RegInit(0.S(9.W))
+    r := r + incX.asUInt.zext - incY.asUInt.zext
+    r
+  }
+  val dAB = diff(aIncW, bIncW) // aNext - bNext
+  val dCB = diff(cIncW, bIncW) // cNext - bNext
+  val dCA = diff(cIncW, aIncW) // cNext - aNext
+  val dDA = diff(dDoneIncW, aIncW) // dDone - aNext
+  val dDC = diff(dDoneIncW, cIncW) // dDone - cNext
+  val dAN = diff(aIncW, dNextIncW) // aNext - dNext
+  val dCN = diff(cIncW, dNextIncW) // cNext - dNext
 
   // ===== A: labelling =====
   val inFrame = RegInit(false.B) // rows of a frame remain to be labelled
@@ -149,13 +164,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // B (declared here: A reads K_{k-1} while B writes it)
   val bx = RegInit(0.U((idW + 1).W)) // B's node; 0 whenever B is idle
   val bxN = WireDefault(bx); bx := bxN
-  val bCanStart = !bBusy && seqGe(aNext, bNext + 1.U) && seqGe(cDoneCnt + 1.U, bNext)
+  val bCanStart = !bBusy && dAB >= 1.S && dCB >= -1.S // aNext >= bNext + 1, cNext + 1 >= bNext
   val bActive = bBusy || bCanStart
   val bxEff = bx
   val bComputed = Wire(UInt(idW.W))
-  val bStarted = Mux(bActive, bNext + 1.U, bNext)
 
-  val canStartRow = !aBusy && seqGe(bStarted, aSeq) && seqGe(cDoneCnt + 1.U, aSeq) && seqGe(dDone + ND.U, aSeq + 1.U)
+  // bStarted >= aSeq, cNext + 1 >= aSeq, dDone + ND >= aSeq + 1
+  val canStartRow = !aBusy && Mux(bActive, dAB <= 1.S, dAB <= 0.S) && dCA >= -1.S && dDA >= (1 - ND).S
   val rowStartNow = !aBusy
   val col = Mux(aBusy, aCol, 0.U)
   // the up pixel (row aRow - 1) at this column: upRows is a ring of A's pixels by pixel count, so it was written
@@ -172,7 +187,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val connectL = valid && col =/= 0.U && leftVal >= 0.S && similar(inV, leftVal)
   val connectU = valid && hasUp && upVal >= 0.S && similar(inV, upVal)
   // K_{k-1}[upId], the flat class: B is flattening row k-1 right now or has finished it (bypass at its position)
-  val bOnPrev = bActive && bNext === aSeq - 1.U
+  val bOnPrev = bActive && dAB === 1.S // bNext = aSeq - 1
   val kBuf = a3.prev
   val cls = Mux(bOnPrev && upId === bxEff, bComputed, kMem(addr(kBuf, upId)))
   val kReady = !bOnPrev || upId <= bxEff
@@ -251,14 +266,15 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val bN = metaN(bD.cur)
   val bPx = {
     val next = addr(b2.next, bxN(idW - 1, 0))
-    val hit = RegNext(pWen && pWAddr === next, false.B)
-    val fwd = RegEnable(pWData, pWen)
-    Mux(hit, fwd, pMem.read(next))
+    // forwarded: the request of this cycle and the one being written (neither is in the word read)
+    val hit1 = RegNext(pWen && pWAddr === next, false.B)
+    val hit2 = RegNext(pwEn && pwAddr === next, false.B)
+    Mux(hit1, pwData, Mux(hit2, RegNext(pwData), pMem.read(next)))
   }
   bComputed := Mux(bPx === bxEff(idW - 1, 0), bPx, kMem(addr(bKslot, bPx)))
   when(bActive) {
     when(bxEff < bN) { kMem.write(addr(bKslot, bxEff(idW - 1, 0)), bComputed) }
-    when(bxEff + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bD.inc(); b2.inc(); b3.inc() }
+    when(bxEff + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
       .otherwise { bBusy := true.B; bxN := bxEff + 1.U }
   }
 
@@ -270,7 +286,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val cRbuf = c2.cur
   val cSbuf = c3.prev
   val cFslot = cF.cur
-  val cCanStart = !cBusy && seqGe(aNext, cNext + 1.U) && seqGe(bDoneCnt, cNext) && seqGe(dDone + NF.U, cNext + 1.U)
+  // aNext >= cNext + 1, bNext >= cNext, dDone + NF >= cNext + 1
+  val cCanStart = !cBusy && dCA <= -1.S && dCB <= 0.S && dDC >= (1 - NF).S
   val cActive = cBusy || cCanStart
   val cxEff = Mux(cBusy, cx, 0.U)
   val cClass = kMem(addr(cKbuf, cxEff(idW - 1, 0)))
@@ -281,7 +298,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     when(cxEff < cPrevN) {
       for ((m, b) <- fMaps.zipWithIndex) when(cFslot === b.U) { m.write(cxEff(idW - 1, 0), cEntry) }
     }
-    when(cxEff + 1.U >= cPrevN) { cBusy := false.B; cNext := cNext + 1.U; cFirst := false.B; cD.inc(); c2.inc(); c3.inc(); cF.inc() }
+    when(cxEff + 1.U >= cPrevN) { cBusy := false.B; cNext := cNext + 1.U; cIncW := true.B; cFirst := false.B; cD.inc(); c2.inc(); c3.inc(); cF.inc() }
       .otherwise { cBusy := true.B; cx := cxEff + 1.U }
   }
 
@@ -315,7 +332,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dVirt = metaVirtual(dSlot)
   val dRowV = metaRow(dSlot); val dH = metaH(dSlot); val dWd = metaW(dSlot)
   val dLen = Mux(dRowV +& (L - 1).U < dH - 1.U, (L - 1).U, dH - dRowV)
-  val dReady = seqGe(aNext, dNext + 1.U) && Mux(dVirt, true.B, seqGe(cDoneCnt, dNext + dLen + 1.U))
+  val dReady = dAN >= 1.S && Mux(dVirt, true.B, dCN >= (dLen +& 1.U).zext) // aNext >= dNext + 1, cNext >= dNext + n + 1
   val word = delay.read(addr(dD.next, dColN)) // one cycle ahead: the row and column D holds next cycle
   val issue = dReady && advance
   val s0 = Wire(Valid(new Beat))
@@ -332,7 +349,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   s0.bits.cols := dWd
   s0.bits.virt := dVirt
   when(issue) {
-    when(dVirt || dCol === dWd - 1.U) { dColN := 0.U; dNext := dNext + 1.U; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
+    when(dVirt || dCol === dWd - 1.U) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
   }
   // stage i (1..L) applies F_{seq + i} when i <= n. The maps are read one cycle ahead: each port's address comes
   // from the beats the stages hold next cycle (stagesNext), so a stage's lookup reads the data of its own beat.
@@ -376,7 +393,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
         outLast := b.lastRow
         outWidth := b.cols
       }
-      when(b.virt || b.eol) { dDone := dDone + 1.U }
+      when(b.virt || b.eol) { dDone := dDone + 1.U; dDoneIncW := true.B }
     }
   }
 }
