@@ -193,9 +193,12 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
 
 object IElas {
   /** The top's no-stall bound N + latencyRows * W + cycleSlack (docs/interfaces.md §4); the sweep's cycle model reads
-    * these (`Main config`). Latency: the band, the late descriptor, the L/R check's row and post's look-ahead.
+    * these (`Main config`). Latency: the band, the late descriptor, the L/R check's row and post's look-ahead, plus
+    * a margin of 4 rows: the stages' pipeline registers and the early path's tail at a frame's end (the support
+    * filter's node takes one cycle more since its pipelining: about one row at mb-tsukuba, 151 523 cycles against
+    * 151 144 with the former margin of 2 rows).
     */
-  def latencyRows(p: ElasParams): Int = bandRows(p) + Descriptor.latencyRows(p) + 1 + PostProcess.latencyRows(p) + 2
+  def latencyRows(p: ElasParams): Int = bandRows(p) + Descriptor.latencyRows(p) + 1 + PostProcess.latencyRows(p) + 4
   def cycleSlack(p: ElasParams): Int = 1000
   /** Image rows the early path needs beyond the row the late path works on: the grid row's dilation and filter
     * window (docs/ALGORITHM.md look-ahead table), the planes' next lattice row plus the fill's look-ahead, whichever
