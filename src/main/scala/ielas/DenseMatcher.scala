@@ -51,7 +51,7 @@ import chisel3.util._
   * rows. Frames may follow each other back to back in all three streams; row banks are tagged with a frame parity
   * so the next frame's rows can load while the current frame ends.
   *
-  * Pipeline (lockstep, stalls as a whole): A (window shift, cover tests, grid read) -> A1..A3 (owner) -> B -> B1 (texture SAD,
+  * Pipeline (lockstep, stalls as a whole): A (window shift, cover tests, grid read) -> A1..A3 (owner) -> B -> B1 (texture SAD in quarters,
   * plane offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi, candidates, ring reads; one
   * cycle per candidate group) -> D (ring data) -> D2 (four quarter-descriptor SADs per lane) -> E (cost with the prior) -> F -> the first-minimum tree, two compare
   * levels per register ([[DenseMatcher.treeRegisters]]) -> output register. Each register step is a few LUTs deep
@@ -100,13 +100,6 @@ class DenseMatcher(p: ElasParams) extends Module {
     val frameHeight = Input(UInt(rowW.W))
     val out = Decoupled(new Framed(new DisparityPair(p)))
   })
-
-  private def sad(x: UInt, y: UInt): UInt = {
-    val unit = Module(new DescriptorSad(p.descriptorBytes))
-    unit.io.x := x
-    unit.io.y := y
-    unit.io.sad
-  }
 
   // ---------------------------------------------------------------- frame parameters (sampled at the desc sof)
   val width = RegInit(p.maxWidth.U(colW.W))
@@ -544,7 +537,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   class StageB1 extends Bundle {
     val carry = new Carry
     val inside = Bool()
-    val texture = Vec(2, UInt(DescriptorSad.bits(p.descriptorBytes).W))
+    val texture = Vec(2, Vec(sadParts, UInt(DescriptorSad.bits(p.descriptorBytes).W))) // quarter SADs vs flat
     val du = Vec(2, SInt((colW + 2).W))
     val dv = Vec(2, SInt((rowW + 2).W))
     val plane = Vec(2, new PlaneCoeffs(p))
@@ -556,7 +549,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     b1.carry := b.px.carry
     b1.inside := b.px.inside
     for (view <- 0 until 2) {
-      b1.texture(view) := sad(b.px.carry.refs(view), flat)
+      b1.texture(view) := VecInit(partSads(b.px.carry.refs(view), flat))
       b1.du(view) := b.px.u.zext - ownerPlanes(view).anchorU
       b1.dv(view) := b.px.v.zext - ownerPlanes(view).anchorV.zext
       b1.plane(view) := ownerPlanes(view)
@@ -575,7 +568,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     b2.carry := b1.carry
     for (view <- 0 until 2) {
       val pl = b1.plane(view)
-      b2.live(view) := b1.inside && b1.texture(view) >= p.matchTexture.U
+      b2.live(view) := b1.inside && b1.texture(view).reduceTree(_ +& _) >= p.matchTexture.U
       b2.terms(view)(0) := pl.a * b1.du(view)
       b2.terms(view)(1) := pl.b * b1.dv(view)
       b2.terms(view)(2) := pl.c
