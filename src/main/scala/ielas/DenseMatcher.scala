@@ -253,6 +253,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   val outFree = !outValid || io.out.ready
 
   val aValid = RegInit(false.B)
+  val aFirst = RegInit(false.B) // a.u = 0, registered with a (it selects the raster window: keep it off the compare)
   val a = Reg(new Pos)
   val shadow = Reg(Vec(K, new Span))
   val shadowFull = RegInit(false.B)
@@ -314,6 +315,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     }.elsewhen(genActive) {
       aValid := true.B
       a := gen
+      aFirst := gen.u === 0.U
       aAddr := wp - D.U
       gen := advance(gen)
       when(frameEnd(gen)) { genActive := false.B }
@@ -366,7 +368,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   val aH = a.h
   val aUp = (a.h - a.vIn)(inW - 1, 0)
   val aDown = a.vIn
-  val win = Mux(a.u === 0.U, shadow, window)
+  val win = Mux(aFirst, shadow, window)
   val uh = a.uh.zext
 
   when(aFire && a.u === 0.U) { shadowFull := false.B }
@@ -409,7 +411,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   aPixel.inside := a.u >= m.U && a.u +& m.U <= width - 1.U && a.v >= m.U && a.v +& m.U <= height - 1.U
   aPixel.planeSel := planeSel
   aPixel.release := rowEnd(a) && (frameEnd(a) || nextCellRow(a))
-  aPixel.first := a.u === 0.U
+  aPixel.first := aFirst
   aPixel.fallback := Cat(lastCell, 1.U(1.W))
   aPixel.carry.addr := aAddr
   aPixel.carry.refs := aRef
