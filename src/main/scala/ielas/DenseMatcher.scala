@@ -427,6 +427,19 @@ class DenseMatcher(p: ElasParams) extends Module {
     when(frameEnd(a) || a.vG === (G - 1).U) { gridFull(gridSel) := false.B }
   }
 
+  /** A register step of the upstream pipeline (stages A1..B3): it loads `fill` and takes the valid bit of the step
+    * before it whenever the upstream pipeline advances.
+    */
+  def upStage[T <: Data](gen: T, prevValid: Bool)(fill: T => Unit): (Bool, T) = {
+    val valid = RegInit(false.B)
+    val r = Reg(gen)
+    when(upAdv) {
+      valid := prevValid
+      fill(r)
+    }
+    (valid, r)
+  }
+
   // Left view: cell cu spans x0..x1 (x1 = min(x0 + step, W - 1)), its triangles cover e = x0 h .. g and g .. f = x1 h
   // with g = x1 (h - vIn) + x0 vIn, and no higher-indexed cell reaches u (its e is above u h; h >= 1 in every row), so
   // the owner is (cu, t = 1) when u h >= g, else (cu, 0): the highest-indexed covering triangle of the general rule.
@@ -440,19 +453,16 @@ class DenseMatcher(p: ElasParams) extends Module {
     val covers = UInt((2 * K).W) // right view: triangle j*2 + t of the window covers the pixel (drawing order)
     val base2 = UInt((cellW + 1).W) // 2 x (cell of window entry 0)
   }
-  val a1Valid = RegInit(false.B)
-  val a1 = Reg(new StageA1)
-  when(upAdv) {
-    a1Valid := aValid
-    a1.px := aPixel
-    a1.cu := a.cu
-    a1.uInH := a.uIn * aH
-    a1.w1Up := Mux(a.cu === lastCell, lastCellWidth, step.U)(inW - 1, 0) * aUp
-    a1.covers := VecInit((0 until K).flatMap { j =>
+  val (a1Valid, a1) = upStage(new StageA1, aValid) { r =>
+    r.px := aPixel
+    r.cu := a.cu
+    r.uInH := a.uIn * aH
+    r.w1Up := Mux(a.cu === lastCell, lastCellWidth, step.U)(inW - 1, 0) * aUp
+    r.covers := VecInit((0 until K).flatMap { j =>
       val s = win(j)
       (0 until 2).map(t => s.valid && s.lo(t) <= uh && uh <= s.hi(t))
     }).asUInt
-    a1.base2 := ((a.cu - 1.U) << 1)(cellW, 0)
+    r.base2 := ((a.cu - 1.U) << 1)(cellW, 0)
   }
   /** The highest set entry of `xs` (a power of two of (any, index) pairs with equal index widths) as a balanced
     * tree of 2:1 muxes: log2 levels instead of the linear chain a priority mux becomes.
@@ -473,18 +483,15 @@ class DenseMatcher(p: ElasParams) extends Module {
     val blockAny = Vec(coverBlocks, Bool()) //   a block of 8 cover bits has a covering triangle
     val blockTop = Vec(coverBlocks, UInt(3.W)) // its highest one
   }
-  val a2Valid = RegInit(false.B)
-  val a2 = Reg(new StageA2)
-  when(upAdv) {
-    a2Valid := a1Valid
-    a2.px := a1.px
-    a2.leftOwner := Cat(a1.cu, a1.uInH >= a1.w1Up)(cellW, 0)
-    a2.base2 := a1.base2
+  val (a2Valid, a2) = upStage(new StageA2, a1Valid) { r =>
+    r.px := a1.px
+    r.leftOwner := Cat(a1.cu, a1.uInH >= a1.w1Up)(cellW, 0)
+    r.base2 := a1.base2
     for (k <- 0 until coverBlocks) {
       val bits = (0 until 8).map(i => if (8 * k + i < 2 * K) a1.covers(8 * k + i) else false.B)
       val (any, top) = highest(bits.grouped(2).map(pair => (pair(0) || pair(1), pair(1).asUInt)).toSeq)
-      a2.blockAny(k) := any
-      a2.blockTop(k) := top
+      r.blockAny(k) := any
+      r.blockTop(k) := top
     }
   }
   class StageA3 extends Bundle {
@@ -494,16 +501,13 @@ class DenseMatcher(p: ElasParams) extends Module {
     val covered = Bool()
     val top = UInt((log2Ceil(coverBlocks) + 3).W) // the highest covering triangle's window index j * 2 + t
   }
-  val a3Valid = RegInit(false.B)
-  val a3 = Reg(new StageA3)
-  when(upAdv) {
-    a3Valid := a2Valid
-    a3.px := a2.px
-    a3.leftOwner := a2.leftOwner
-    a3.base2 := a2.base2
+  val (a3Valid, a3) = upStage(new StageA3, a2Valid) { r =>
+    r.px := a2.px
+    r.leftOwner := a2.leftOwner
+    r.base2 := a2.base2
     val (any, top) = highest(a2.blockAny.zip(a2.blockTop))
-    a3.covered := any
-    a3.top := top
+    r.covered := any
+    r.top := top
   }
   // Right view: the highest-indexed covering triangle in the window, else the owner of the last covered pixel.
   val carry = Reg(UInt((cellW + 1).W))
@@ -514,13 +518,10 @@ class DenseMatcher(p: ElasParams) extends Module {
     val px = new Pixel
     val owner = Vec(2, UInt((cellW + 1).W))
   }
-  val bValid = RegInit(false.B)
-  val b = Reg(new StageB)
-  when(upAdv) {
-    bValid := a3Valid
-    b.px := a3.px
-    b.owner(0) := a3.leftOwner
-    b.owner(1) := rightOwner
+  val (bValid, b) = upStage(new StageB, a3Valid) { r =>
+    r.px := a3.px
+    r.owner(0) := a3.leftOwner
+    r.owner(1) := rightOwner
   }
   // the left view's targets: descR of the pixels that have passed stage B
   when(upAdv && bValid) { ringR.foreach(_.write(b.px.carry.addr, b.px.carry.refs(1))) }
@@ -544,17 +545,14 @@ class DenseMatcher(p: ElasParams) extends Module {
     val dv = Vec(2, SInt((rowW + 2).W))
     val plane = Vec(2, new PlaneCoeffs(p))
   }
-  val b1Valid = RegInit(false.B)
-  val b1 = Reg(new StageB1)
-  when(upAdv) {
-    b1Valid := bValid
-    b1.carry := b.px.carry
-    b1.inside := b.px.inside
+  val (b1Valid, b1) = upStage(new StageB1, bValid) { r =>
+    r.carry := b.px.carry
+    r.inside := b.px.inside
     for (view <- 0 until 2) {
-      b1.texture(view) := VecInit(partSads(b.px.carry.refs(view), flat))
-      b1.du(view) := b.px.u.zext - ownerPlanes(view).anchorU
-      b1.dv(view) := b.px.v.zext - ownerPlanes(view).anchorV.zext
-      b1.plane(view) := ownerPlanes(view)
+      r.texture(view) := VecInit(partSads(b.px.carry.refs(view), flat))
+      r.du(view) := b.px.u.zext - ownerPlanes(view).anchorU
+      r.dv(view) := b.px.v.zext - ownerPlanes(view).anchorV.zext
+      r.plane(view) := ownerPlanes(view)
     }
   }
   class StageB2 extends Bundle {
@@ -563,18 +561,15 @@ class DenseMatcher(p: ElasParams) extends Module {
     val terms = Vec(2, Vec(3, SInt(termW.W))) // a du, b dv, c
     val priorOn = Vec(2, Bool())
   }
-  val b2Valid = RegInit(false.B)
-  val b2 = Reg(new StageB2)
-  when(upAdv) {
-    b2Valid := b1Valid
-    b2.carry := b1.carry
+  val (b2Valid, b2) = upStage(new StageB2, b1Valid) { r =>
+    r.carry := b1.carry
     for (view <- 0 until 2) {
       val pl = b1.plane(view)
-      b2.live(view) := b1.inside && b1.texture(view).reduceTree(_ +& _) >= p.matchTexture.U
-      b2.terms(view)(0) := pl.a * b1.du(view)
-      b2.terms(view)(1) := pl.b * b1.dv(view)
-      b2.terms(view)(2) := pl.c
-      b2.priorOn(view) := pl.valid
+      r.live(view) := b1.inside && b1.texture(view).reduceTree(_ +& _) >= p.matchTexture.U
+      r.terms(view)(0) := pl.a * b1.du(view)
+      r.terms(view)(1) := pl.b * b1.dv(view)
+      r.terms(view)(2) := pl.c
+      r.priorOn(view) := pl.valid
     }
   }
   class StageB3 extends Bundle {
@@ -583,16 +578,13 @@ class DenseMatcher(p: ElasParams) extends Module {
     val dp = Vec(2, SInt(termW.W)) // the plane's disparity (rounded)
     val priorOn = Vec(2, Bool())
   }
-  val b3Valid = RegInit(false.B)
-  val b3 = Reg(new StageB3)
-  when(upAdv) {
-    b3Valid := b2Valid
-    b3.carry := b2.carry
-    b3.live := b2.live
-    b3.priorOn := b2.priorOn
+  val (b3Valid, b3) = upStage(new StageB3, b2Valid) { r =>
+    r.carry := b2.carry
+    r.live := b2.live
+    r.priorOn := b2.priorOn
     for (view <- 0 until 2) {
       val t = b2.terms(view)
-      b3.dp(view) := (t(2) +& t(0) +& t(1) +& (1 << 15).S) >> 16
+      r.dp(view) := (t(2) +& t(0) +& t(1) +& (1 << 15).S) >> 16
     }
   }
 
