@@ -31,8 +31,8 @@ case "${1:-}" in
     unset SWEEP_RESULTS SWEEP_CACHE SWEEP_WORK  # quick reads and writes only under $d
     rm -rf "$d"
     start=$(date +%s)
-    # SWEEP=quick never touches docs/sweep/ (the committed results): checked at the end.
-    snapshot() { { find docs/sweep docs/sweep.md -type f -printf '%p %s %T@\n' 2>/dev/null || true; } | sort | sha256sum; }
+    # SWEEP=quick never touches docs/sweep/ or sweep-cache/ (committed): checked at the end.
+    snapshot() { { find docs/sweep docs/sweep.md sweep-cache -type f -printf '%p %s %T@\n' 2>/dev/null || true; } | sort | sha256sum; }
     before="$(snapshot)"
     "$0" configs quick
     # Sum of per-module runs vs the whole top, on one quick point (the committed check runs on two full points).
@@ -49,7 +49,7 @@ case "${1:-}" in
     [ "$agree_rc" -eq 0 ] || die "agree.py failed (exit $agree_rc): the sum of modules and the whole top disagree or a run failed"
     "$PY" scripts/sweep/report.py --grid quick --wall "$(( $(date +%s) - start ))"
     python3 scripts/sweep/check.py --grid quick
-    [ "$(snapshot)" = "$before" ] || die "SWEEP=quick changed docs/sweep/ (it must write only under $d)"
+    [ "$(snapshot)" = "$before" ] || die "SWEEP=quick changed docs/sweep/ or sweep-cache/ (it must write only under $d)"
     echo "sweep quick: passed in $(( $(date +%s) - start )) s"
     ;;
   report)

@@ -98,7 +98,7 @@ def main():
     for p in pts:
         grid.by_name(p)
     if args.grid == "full":
-        grid_dir, cache = os.path.join(ROOT, "build", "sweep"), os.path.join(ROOT, "docs", "sweep", "cache")
+        grid_dir, cache = os.path.join(ROOT, "build", "sweep"), os.path.join(ROOT, "sweep-cache")
         out = os.path.join(ROOT, "docs", "sweep", "agreement.json")
     else:
         grid_dir = os.path.join(ROOT, "build", "sweep-quick")

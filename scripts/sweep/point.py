@@ -254,10 +254,10 @@ def main():
         grid_dir = args.grid_dir
     elif p.grid == "quick":
         grid_dir = os.path.join(ROOT, "build", "sweep-quick")
-    else:  # full: configs and work under build/, results and cache committed under docs/sweep/
+    else:  # full: configs and work under build/; results (docs/sweep/) and cache (sweep-cache/) committed
         grid_dir = os.path.join(ROOT, "build", "sweep")
         os.environ.setdefault("SWEEP_RESULTS", os.path.join(ROOT, "docs", "sweep", "results.csv"))
-        os.environ.setdefault("SWEEP_CACHE", os.path.join(ROOT, "docs", "sweep", "cache"))
+        os.environ.setdefault("SWEEP_CACHE", os.path.join(ROOT, "sweep-cache"))
     return run(args.point, os.path.abspath(grid_dir), args.force)
 
 

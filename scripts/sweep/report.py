@@ -149,7 +149,7 @@ def how_to_choose(rows, provisional):
     """A paragraph from the measured numbers (deltas across the grid), marked while the top is incomplete."""
     by = {r["point"]: r for r in rows}
     out = []
-    # The lead: what sets the size, from the named kitti point's largest units and the dispMax series.
+    # The opening sentence: what sets the size, from the named kitti point's largest units and the dispMax series.
     lead = []
     k = by.get("kitti-d255-s20-w5")
     if k and k.get("lut_by_unit") and num(k, "LUT"):
@@ -461,7 +461,7 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
           "- **LUT, FF, RAMB36, RAMB18, DSP, LUT lvl**: Yosys 0.23 `synth_xilinx -family xc7 -flatten` (docs/"
           "synthesis.md), unit by unit down the module hierarchy (each module's own logic with its submodules as "
           "black boxes; a replicated unit such as the dense stage's `DescriptorSad` synthesised once and counted "
-          "per instance) and summed; results cached by module Verilog hash in `docs/sweep/cache/`, so points "
+          "per instance) and summed; results cached by module Verilog hash in `sweep-cache/`, so points "
           "share units. LUT counts LUT1..LUT6 used as logic; LUT-RAM counts the LUT sites of LUT-RAM and SRL "
           "primitives (RAM64M = 4, RAM128X1D = 4, SRLC32E = 1, ...), so LUT + LUT-RAM is a Vivado-style slice-LUT "
           "count. BRAM36eq = "
@@ -482,7 +482,7 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
           "with |d - gt| > 3, invalid counted as bad; D1 = |err| > 3 px and > 5 % of gt, invalid = bad; density = % "
           "with a valid prediction. Mean over pairs. kitti: KITTI 2012 #70 (noc) and KITTI 2015 #46 (all). "
           "tsukuba: centred 640x480 crops of Middlebury 2006 Reindeer and Wood2 (all) and 2014 Motorcycle (noc). "
-          "Cached by configuration bytes + golden binary hash (`docs/sweep/cache/accuracy/`).",
+          "Cached by configuration bytes + golden binary hash (`sweep-cache/accuracy/`).",
           "- **Rerun rule**: a point is skipped when results.csv holds its configuration hash, its design hash "
           "(sha256 of the emitted Verilog; before elaborating, the generator-source hash stands in) and the golden "
           "binary hash. `FORCE=1` reruns. A point that fails (a `require` at elaboration, a Yosys time or memory "

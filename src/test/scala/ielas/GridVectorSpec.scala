@@ -255,7 +255,7 @@ object GridVectorSpec {
   }
 }
 
-/** The spec's one Verilator build: the [[GridVectorChain]] as the lead uses it, plus a stand-alone [[GridVector]]
+/** The spec's one Verilator build: the [[GridVectorChain]] (the early path up to the grid stage), plus a stand-alone [[GridVector]]
   * fed with lattice values directly (two's complement bits on the port, -1 = none) sharing the frame size ports, and
   * a count of the cycles its input was offered but not taken.
   */
