@@ -215,39 +215,3 @@ object Descriptor {
       s"${bufferedRows(p)} pixel rows x {left, right} 8 bit, SyncReadMem 1R1W")
   )
 }
-
-/** Stage-test chain of the `descriptor` stage: pixel input -> [[Descriptor]], behind the frame size check the
-  * top's guard also makes: a start of frame whose frameWidth/frameHeight lie outside 32x16..maxWidth x maxHeight
-  * raises the sticky `error` bit (cleared by reset or a one-cycle `clearError`) and the whole frame is dropped up to
-  * the next start of frame. Used by DescriptorSpec and `make simulate STAGE=descriptor`.
-  */
-class DescriptorChain(p: ElasParams) extends Module {
-  val io = IO(new Bundle {
-    val in = Flipped(Decoupled(new PixelPair))
-    val frameWidth = Input(UInt(p.colBits.W))
-    val frameHeight = Input(UInt(p.rowBits.W))
-    val error = Output(Bool())
-    val clearError = Input(Bool())
-    val out = Decoupled(new Framed(new DescriptorPair(p.descriptorBytes)))
-  })
-
-  val descriptor = Module(new Descriptor(p))
-
-  val error = RegInit(false.B)
-  val dropping = RegInit(false.B) // inside a frame whose size was illegal
-  val sof = io.in.valid && io.in.bits.sof
-  val illegalSize = !FrameSize.isLegal(p, io.frameWidth, io.frameHeight)
-  val drop = Mux(sof, illegalSize, dropping)
-
-  when(io.clearError) { error := false.B }
-  when(sof && illegalSize) { error := true.B }
-  when(io.in.fire) { dropping := drop }
-
-  descriptor.io.in.valid := io.in.valid && !drop
-  descriptor.io.in.bits := io.in.bits
-  io.in.ready := drop || descriptor.io.in.ready
-  descriptor.io.frameWidth := io.frameWidth
-  descriptor.io.frameHeight := io.frameHeight
-  io.out <> descriptor.io.out
-  io.error := error
-}

@@ -344,29 +344,3 @@ object GridVector {
     MemoryUse("Grid", "marks", slots * p.gridColsMax, 2 * (p.dispMax + 1),
       s"$slots grid-row slots x ${p.gridColsMax} cells of ${p.dispMax + 1} mark bits, one SyncReadMem 1R1W per view"))
 }
-
-/** Ports of the grid stage-test chain: pixel pairs in, grid cells out. */
-class GridVectorChainIO(p: ElasParams) extends Bundle {
-  val in = Flipped(Decoupled(new PixelPair))
-  val frameWidth = Input(UInt(p.colBits.W))
-  val frameHeight = Input(UInt(p.rowBits.W))
-  val out = Decoupled(new Framed(new GridCellPair(p)))
-}
-
-/** Stage-test chain: pixel input -> [[Descriptor]] -> [[SupportMatcher]] -> [[SupportFilter]] -> [[GridVector]]
-  * (frame size ports shared by all).
-  */
-class GridVectorChain(p: ElasParams) extends Module {
-  val io = IO(new GridVectorChainIO(p))
-  val support = Module(new SupportChain(p))
-  val filter = Module(new SupportFilter(p))
-  val grid = Module(new GridVector(p))
-  support.io.in <> io.in
-  support.io.frameWidth := io.frameWidth
-  support.io.frameHeight := io.frameHeight
-  filter.io.in <> support.io.out
-  grid.io.in <> filter.io.out
-  grid.io.frameWidth := io.frameWidth
-  grid.io.frameHeight := io.frameHeight
-  io.out <> grid.io.out
-}

@@ -413,18 +413,3 @@ object LatticeFill {
     }
   }
 }
-
-/** Stage-test chain: pixel input -> [[Descriptor]] -> [[SupportMatcher]] -> [[SupportFilter]] -> [[LatticeFill]]. */
-class LatticeFillChain(p: ElasParams) extends LatticeChain(p) {
-  val support = Module(new SupportChain(p))
-  val filter = Module(new SupportFilter(p))
-  val fill = Module(new LatticeFill(p))
-  support.io.in <> io.in
-  support.io.frameWidth := io.frameWidth
-  support.io.frameHeight := io.frameHeight
-  filter.io.in <> support.io.out
-  fill.io.in <> filter.io.out
-  fill.io.frameWidth := io.frameWidth
-  fill.io.frameHeight := io.frameHeight
-  io.out <> fill.io.out
-}

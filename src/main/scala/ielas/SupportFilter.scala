@@ -198,14 +198,3 @@ object SupportFilter {
     MemoryUse("Filter", "rows", p.latticeColsMax, slots(p) * (p.dispBits + 1),
       s"${slots(p)} lattice rows of ${p.dispBits + 1}-bit values, one SyncReadMem 1R1W per row"))
 }
-
-/** Stage-test chain: pixel input -> [[Descriptor]] -> [[SupportMatcher]] -> [[SupportFilter]]. */
-class SupportFilterChain(p: ElasParams) extends LatticeChain(p) {
-  val support = Module(new SupportChain(p))
-  val filter = Module(new SupportFilter(p))
-  support.io.in <> io.in
-  support.io.frameWidth := io.frameWidth
-  support.io.frameHeight := io.frameHeight
-  filter.io.in <> support.io.out
-  io.out <> filter.io.out
-}

@@ -580,29 +580,3 @@ object SupportMatcher {
     MemoryUse("Support", "texture", slots(p) * p.maxWidth, 2, s"${slots(p)} slots x 2 views, SyncReadMem 1R1W")
   )
 }
-
-/** Ports of the stage-test chains that end in a lattice stream: pixel pairs in, lattice values out. */
-class LatticeChainIO(p: ElasParams) extends Bundle {
-  val in = Flipped(Decoupled(new PixelPair))
-  val frameWidth = Input(UInt(p.colBits.W))
-  val frameHeight = Input(UInt(p.rowBits.W))
-  val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
-}
-
-/** A stage-test chain from pixel pairs to a lattice stream. */
-abstract class LatticeChain(p: ElasParams) extends Module {
-  val io = IO(new LatticeChainIO(p))
-}
-
-/** Stage-test chain: pixel input -> [[Descriptor]] -> [[SupportMatcher]] (frame size ports shared by both). */
-class SupportChain(p: ElasParams) extends LatticeChain(p) {
-  val descriptor = Module(new Descriptor(p))
-  val matcher = Module(new SupportMatcher(p))
-  descriptor.io.in <> io.in
-  descriptor.io.frameWidth := io.frameWidth
-  descriptor.io.frameHeight := io.frameHeight
-  matcher.io.in <> descriptor.io.out
-  matcher.io.frameWidth := io.frameWidth
-  matcher.io.frameHeight := io.frameHeight
-  io.out <> matcher.io.out
-}
