@@ -54,6 +54,13 @@ inline int& checks() {
     }                                                                                                    \
   } while (0)
 
+// Counts a failed check whose caller has printed its own message (a value mismatch with context, a missing column).
+inline void recordFailure() {
+  ++testing_detail::checks();
+  ++testing_detail::failures();
+}
+inline bool anyFailed() { return testing_detail::failures() != 0; }
+
 inline int testExitCode(const char* name) {
   int f = testing_detail::failures();
   std::cout << name << ": " << testing_detail::checks() << " checks, " << f << " failed" << std::endl;

@@ -15,30 +15,23 @@
 #include <sys/stat.h>
 #include <vector>
 
+#include "check.hpp"
+
 namespace {
 
-int failures = 0;
 const std::string kBin = std::string(IELAS_BIN_DIR) + "/ielas-eval";
 const std::string kTmp = std::string(IELAS_TEST_TMP_DIR) + "/eval";
 const float kInf = std::numeric_limits<float>::infinity();
-
-#define CHECK(cond)                                                              \
-  do {                                                                           \
-    if (!(cond)) {                                                               \
-      std::cerr << __FILE__ << ":" << __LINE__ << ": CHECK failed: " #cond "\n"; \
-      ++failures;                                                                \
-    }                                                                            \
-  } while (0)
 
 // The CSV prints 4 decimals, so equal within 5e-5 means the hand value was printed.
 void checkNear(const std::map<std::string, double>& row, const std::string& column, double expected, int line) {
   auto it = row.find(column);
   if (it == row.end()) {
     std::cerr << __FILE__ << ":" << line << ": no column " << column << "\n";
-    ++failures;
+    recordFailure();
   } else if (!(std::fabs(it->second - expected) <= 5e-5)) {
     std::cerr << __FILE__ << ":" << line << ": " << column << " = " << it->second << ", expected " << expected << "\n";
-    ++failures;
+    recordFailure();
   }
 }
 #define CHECK_COL(row, column, expected) checkNear(row, column, expected, __LINE__)
@@ -107,7 +100,7 @@ std::map<std::string, double> score(const std::string& args) {
   std::map<std::string, double> row;
   if (r.status != 0) {
     std::cerr << "ielas-eval failed: " << r.err;
-    ++failures;
+    recordFailure();
     return row;
   }
   std::stringstream lines(r.out);
@@ -181,7 +174,7 @@ void testKittiInterpolation() {
       const float got = filled[y][x];
       if (!((want < 0 && got < 0) || got == want)) {
         std::cerr << "ipol fill at row " << y << " col " << x << ": " << got << ", expected " << want << "\n";
-        ++failures;
+        recordFailure();
       }
     }
   CHECK_COL(row, "bad1_ipol", 100.0 * 5 / 30);  // only the 5 pixels of the empty middle row
@@ -243,7 +236,7 @@ void testPicturesAndErrors() {
     Run r = run(args);
     if (r.status == 0 || lineCount(r.err) != 1) {
       std::cerr << "expected one-line error for: " << args << "\n got status " << r.status << ": " << r.err;
-      ++failures;
+      recordFailure();
     }
   }
 }
@@ -259,10 +252,5 @@ int main() {
   testKittiPngInputs();
   testEightBitGtMasksAndNpy();
   testPicturesAndErrors();
-  if (failures) {
-    std::cerr << "test_eval: " << failures << " failure(s)\n";
-    return 1;
-  }
-  std::cout << "test_eval: all checks passed\n";
-  return 0;
+  return testExitCode("test_eval");
 }

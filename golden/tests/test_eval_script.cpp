@@ -11,19 +11,12 @@
 #include <sys/stat.h>
 #include <vector>
 
+#include "check.hpp"
+
 namespace {
 
-int failures = 0;
 const std::string kTmp = std::string(IELAS_TEST_TMP_DIR) + "/eval_script";
 const std::string kRepo = std::string(IELAS_TEST_CONFIG_DIR) + "/../..";
-
-#define CHECK(cond)                                                              \
-  do {                                                                           \
-    if (!(cond)) {                                                               \
-      std::cerr << __FILE__ << ":" << __LINE__ << ": CHECK failed: " #cond "\n"; \
-      ++failures;                                                                \
-    }                                                                            \
-  } while (0)
 
 // The stand-in: finds the left view's ground truth from the data layout and writes it back, shifted.
 const char* kFakeMatch = R"FAKE(#!/usr/bin/env bash
@@ -61,7 +54,7 @@ int column(const std::vector<std::string>& header, const std::string& name) {
   for (size_t i = 0; i < header.size(); ++i)
     if (header[i] == name) return static_cast<int>(i);
   std::cerr << "no column " << name << "\n";
-  ++failures;
+  recordFailure();
   return 0;
 }
 
@@ -107,7 +100,7 @@ int main() {
     for (size_t i = 1; i < rows.size(); ++i) {
       const auto& r = rows[i];
       if (r.size() != h.size()) {
-        ++failures;
+        recordFailure();
         continue;
       }
       CHECK(std::atof(r[bad1].c_str()) == 100.0);
@@ -135,10 +128,6 @@ int main() {
   CHECK(runEval("elas", kTmp + "/bad1") != 0);
   CHECK(runEval("nomode --preset robotics", kTmp + "/bad2") != 0);
 
-  if (failures) {
-    std::cerr << "test_eval_script: " << failures << " failure(s); logs in " << kTmp << "\n";
-    return 1;
-  }
-  std::cout << "test_eval_script: all checks passed\n";
-  return 0;
+  if (anyFailed()) std::cerr << "logs in " << kTmp << "\n";
+  return testExitCode("test_eval_script");
 }

@@ -11,19 +11,12 @@
 #include <sys/stat.h>
 #include <vector>
 
+#include "check.hpp"
+
 namespace {
 
-int failures = 0;
 const std::string kBin = std::string(IELAS_BIN_DIR) + "/ielas-synth";
 const std::string kTmp = std::string(IELAS_TEST_TMP_DIR) + "/synth";
-
-#define CHECK(cond)                                                              \
-  do {                                                                           \
-    if (!(cond)) {                                                               \
-      std::cerr << __FILE__ << ":" << __LINE__ << ": CHECK failed: " #cond "\n"; \
-      ++failures;                                                                \
-    }                                                                            \
-  } while (0)
 
 cv::Mat readPfm(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -50,7 +43,7 @@ void checkDisparity(const cv::Mat& disp, int x, int y, double expected, int line
   if (got != expected) {
     std::cerr << __FILE__ << ":" << line << ": GT at (" << x << "," << y << ") = " << got << ", expected " << expected
               << "\n";
-    ++failures;
+    recordFailure();
   }
 }
 #define CHECK_GT(disp, x, y, expected) checkDisparity(disp, x, y, expected, __LINE__)
@@ -74,7 +67,7 @@ int main() {
   CHECK(disp.cols == 640 && disp.rows == 360);
   CHECK(kitti.type() == CV_16U && kitti.size() == disp.size());
   CHECK(left.type() == CV_8U && right.type() == CV_8U && left.size() == disp.size());
-  if (failures) return 1;
+  if (anyFailed()) return testExitCode("test_eval_synth");
 
   // Hand-computed planes at 640x360 (data/README.md lists them):
   CHECK_GT(disp, 470, 225, 88);                 // box: d = 88
@@ -116,7 +109,7 @@ int main() {
   for (const char* file : {"left.png", "right.png", "disp.pfm", "disp.png", "disp_noc.png", "nonocc.png"})
     if (slurp(a + "/" + file) != slurp(b + "/" + file)) {
       std::cerr << "second run differs in " << file << "\n";
-      ++failures;
+      recordFailure();
     }
 
   // Bad arguments fail.
@@ -124,10 +117,5 @@ int main() {
   CHECK(std::system((kBin + " --out " + kTmp + "/c --width 8 2>/dev/null").c_str()) != 0);
   CHECK(std::system((kBin + " 2>/dev/null").c_str()) != 0);
 
-  if (failures) {
-    std::cerr << "test_eval_synth: " << failures << " failure(s)\n";
-    return 1;
-  }
-  std::cout << "test_eval_synth: all checks passed\n";
-  return 0;
+  return testExitCode("test_eval_synth");
 }
