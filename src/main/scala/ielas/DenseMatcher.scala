@@ -75,7 +75,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   private val inW = log2Ceil(step + 1)
   private val gInW = log2Ceil(G + 1)
   private val spanW = DenseMatcher.spanBits(p)
-  private val dispW = p.dispBits + 1 // signed disparity, -1 invalid
+  private val dispW = p.signedDispBits // signed disparity, -1 invalid
   private val offW = log2Ceil(3 * R + 1) + 2 // lo - d_p + i for i <= 2R, signed
   private val descBits = 8 * p.descriptorBytes
   private val lanes = p.denseLanesUsed //      SAD lanes per view
@@ -595,8 +595,8 @@ class DenseMatcher(p: ElasParams) extends Module {
     val live = Vec(2, Bool())
     val reach = Vec(2, SInt((colW + 1).W))
     val grid = Vec(2, Vec(S, SInt(dispW.W)))
-    val lo = Vec(2, UInt((p.dispBits + 1).W))
-    val hi = Vec(2, UInt((p.dispBits + 1).W))
+    val lo = Vec(2, UInt(p.signedDispBits.W))
+    val hi = Vec(2, UInt(p.signedDispBits.W))
     val empty = Vec(2, Bool())
     val off = Vec(2, SInt(offW.W)) // lo - d_p (in -R..R when the range is not empty)
     val priorOn = Vec(2, Bool())
@@ -869,7 +869,7 @@ object DenseMatcher {
   def spanBits(p: ElasParams): Int = log2Ceil(math.max(p.maxWidth, p.dispMax + 1) * p.candidateStep + 1) + 2
   /** Both triangles' planes of one view: 2 x (a, b, c, anchorU, anchorV, valid). */
   def planeBits(p: ElasParams): Int = 2 * (3 * 32 + p.colBits + 1 + p.rowBits + 1)
-  def gridCellBits(p: ElasParams): Int = 2 * p.storedDisparities * (p.dispBits + 1)
+  def gridCellBits(p: ElasParams): Int = 2 * p.storedDisparities * p.signedDispBits
   /** Cycles a frame costs beyond its pixels: the flush, the three pipeline registers, and the first row's planes
     * and primer when they have not arrived during the first dispMax steps.
     */

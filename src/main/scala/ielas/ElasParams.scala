@@ -157,6 +157,8 @@ case class ElasParams(
 
   /** Widths. */
   val dispBits: Int = log2Ceil(dispMax + 1)
+  /** A disparity as a signed value: 0..dispMax, or -1 for none (lattice, grid and dense streams). */
+  val signedDispBits: Int = dispBits + 1
   val colBits: Int = log2Ceil(maxWidth + 1)
   val rowBits: Int = log2Ceil(maxHeight + 1)
 

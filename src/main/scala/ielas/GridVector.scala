@@ -48,10 +48,10 @@ class GridVector(p: ElasParams) extends Module {
   private val rowW = log2Ceil(p.gridRowsMax + 4) // grid rows, up to Gh + 3 (stall compare)
   private val addrW = log2Ceil(slots * colsMax)
   private val cntW = log2Ceil(sd + 1)
-  private val valueType = SInt((p.dispBits + 1).W)
+  private val valueType = SInt(p.signedDispBits.W)
 
   val io = IO(new Bundle {
-    val in = Flipped(Decoupled(new Framed(SInt((p.dispBits + 1).W))))
+    val in = Flipped(Decoupled(new Framed(SInt(p.signedDispBits.W))))
     val frameWidth = Input(UInt(p.colBits.W))
     val frameHeight = Input(UInt(p.rowBits.W))
     val out = Decoupled(new Framed(new GridCellPair(p)))

@@ -76,7 +76,7 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
     case Stage.Grid => last.index >= Stage.Dense.index
     case _ => last.index > s.index
   })
-  private val latticeType = new Framed(SInt((p.dispBits + 1).W))
+  private val latticeType = new Framed(SInt(p.signedDispBits.W))
 
   val guard = Module(new FrameGuard(p))
   if (p.cyclesPerPixel == 1) guard.io.in <> in
@@ -224,8 +224,8 @@ object IElas {
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = {
     val pixelBits = 2 * 8 + 2
-    val latticeBits = p.dispBits + 1 + 3
-    val gridBits = 2 * p.storedDisparities * (p.dispBits + 1) + 3
+    val latticeBits = p.signedDispBits + 3
+    val gridBits = 2 * p.storedDisparities * p.signedDispBits + 3
     Descriptor.memorySummary(p).map(_.copy(module = "Descriptor (early)")) ++
       SupportMatcher.memorySummary(p) ++ SupportFilter.memorySummary(p) ++ LatticeFill.memorySummary(p) ++
       GridVector.memorySummary(p) ++
@@ -306,7 +306,7 @@ class StageTap(p: ElasParams, val stage: Stage) extends Module {
     case Stage.Planes => new PlaneCell(p)
     case Stage.Dense | Stage.LrCheck => new DisparityPair(p)
     case Stage.Post => SInt(16.W)
-    case _ => SInt((p.dispBits + 1).W)
+    case _ => SInt(p.signedDispBits.W)
   }
   val dataWidth: Int = dataOf(stage).getWidth
   val io = IO(new Bundle {

@@ -52,10 +52,10 @@ class LatticeFill(p: ElasParams) extends Module {
   private val valueType = SInt((dBits + 1).W)
 
   val io = IO(new Bundle {
-    val in = Flipped(Decoupled(new Framed(SInt((p.dispBits + 1).W))))
+    val in = Flipped(Decoupled(new Framed(SInt(p.signedDispBits.W))))
     val frameWidth = Input(UInt(p.colBits.W))
     val frameHeight = Input(UInt(p.rowBits.W))
-    val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
+    val out = Decoupled(new Framed(SInt(p.signedDispBits.W)))
   })
 
   def nextSlot(s: UInt): UInt = Mux(s === (slots - 1).U, 0.U, s + 1.U)
@@ -394,7 +394,7 @@ object LatticeFill {
 
   /** Worst-case cycles for one lattice row of `lw` nodes (r7: every other node a support, each pair divided). */
   def rowCycles(p: ElasParams, lw: Int): Int = p.fillRule match {
-    case FillRule.R7 => 3 * lw + (lw + 1) / 2 * (p.dispBits + 1) + 2
+    case FillRule.R7 => 3 * lw + (lw + 1) / 2 * p.signedDispBits + 2
     case FillRule.Paper => 3 * lw + 2
   }
 
@@ -406,8 +406,8 @@ object LatticeFill {
       case FillRule.R7 => Seq(lists,
         MemoryUse("LatticeFill", "above", p.latticeColsMax, p.dispBits, "the filled row above, SyncReadMem 1R1W"))
       case FillRule.Paper => Seq(lists,
-        MemoryUse("LatticeFill", "ring", p.latticeColsMax, s * (p.dispBits + 1),
-          s"$s lattice rows of ${p.dispBits + 1}-bit values, one SyncReadMem 1R1W per row"),
+        MemoryUse("LatticeFill", "ring", p.latticeColsMax, s * p.signedDispBits,
+          s"$s lattice rows of ${p.signedDispBits}-bit values, one SyncReadMem 1R1W per row"),
         MemoryUse("LatticeFill", "lastAbove", p.latticeColsMax, 1 + coordBits(p) + p.dispBits,
           "per column the last support above (valid, pixel row, value), SyncReadMem 1R1W"))
     }

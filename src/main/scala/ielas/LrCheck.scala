@@ -36,7 +36,7 @@ import chisel3.util._
 class LrCheck(p: ElasParams) extends Module {
   private val slots = LrCheck.slots
   private val addrW = log2Ceil(p.maxWidth)
-  private val valueType = SInt((p.dispBits + 1).W)
+  private val valueType = SInt(p.signedDispBits.W)
 
   val io = IO(new Bundle {
     val in = Flipped(Decoupled(new Framed(new DisparityPair(p))))
@@ -154,8 +154,8 @@ class LrCheck(p: ElasParams) extends Module {
   // ---- s3: the looked-up values registered, then the comparisons ----
   val s3Valid = RegInit(false.B)
   val s3 = Reg(new Bundle {
-    val dL = SInt((p.dispBits + 1).W); val dR = SInt((p.dispBits + 1).W); val inL = Bool(); val inR = Bool()
-    val otherR = SInt((p.dispBits + 1).W); val otherL = SInt((p.dispBits + 1).W) // R(u - dL), L(u + dR)
+    val dL = SInt(p.signedDispBits.W); val dR = SInt(p.signedDispBits.W); val inL = Bool(); val inR = Bool()
+    val otherR = SInt(p.signedDispBits.W); val otherL = SInt(p.signedDispBits.W) // R(u - dL), L(u + dR)
     val sof = Bool(); val eol = Bool(); val eof = Bool()
   })
   def consistent(d: SInt, other: SInt): Bool = {
@@ -254,6 +254,6 @@ object LrCheck {
   def narrowingSlack(wide: Int, narrow: Int): Int = if (2 * narrow < wide + cycleSlack) wide + cycleSlack else 0
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
-    MemoryUse("LrCheck", "rows", p.maxWidth, slots * 2 * (p.dispBits + 1),
-      s"$slots row slots x {left, right} ${p.dispBits + 1}-bit disparities, one SyncReadMem (1RW + 1R) per slot and view"))
+    MemoryUse("LrCheck", "rows", p.maxWidth, slots * 2 * p.signedDispBits,
+      s"$slots row slots x {left, right} ${p.signedDispBits}-bit disparities, one SyncReadMem (1RW + 1R) per slot and view"))
 }

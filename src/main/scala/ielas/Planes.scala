@@ -35,7 +35,7 @@ class Planes(p: ElasParams, enginesOverride: Int = 0) extends Module {
   private val linW = log2Ceil(math.max(p.maxWidth, p.maxHeight) + step + 1) // i*step before the clamp
 
   val io = IO(new Bundle {
-    val in = Flipped(Decoupled(new Framed(SInt((p.dispBits + 1).W))))
+    val in = Flipped(Decoupled(new Framed(SInt(p.signedDispBits.W))))
     val frameWidth = Input(UInt(p.colBits.W))
     val frameHeight = Input(UInt(p.rowBits.W))
     val out = Decoupled(new Framed(new PlaneCell(p)))

@@ -16,7 +16,7 @@ import chisel3.util._
   * steps read a row being written 2 columns behind it). See [[PostProcess.latencyRows]].
   */
 class PostProcess(p: ElasParams) extends Module {
-  private val vW = p.dispBits + 1
+  private val vW = p.signedDispBits
   val io = IO(new Bundle {
     val in = Flipped(Decoupled(new Framed(SInt(vW.W))))
     val frameWidth = Input(UInt(p.colBits.W))
@@ -75,8 +75,8 @@ object PostProcess {
     val w = p.maxWidth
     val g = columnWindow(p)
     PostProcessSpeckle.memorySummary(p) ++ Seq(
-      MemoryUse("PostRows", "rows", 2 * w, p.dispBits + 1, "2 row slots; SyncReadMem (block RAM)"),
-      MemoryUse("PostRows", "runs", 2 * w, p.colBits + p.dispBits + 1,
+      MemoryUse("PostRows", "rows", 2 * w, p.signedDispBits, "2 row slots; SyncReadMem (block RAM)"),
+      MemoryUse("PostRows", "runs", 2 * w, p.colBits + p.signedDispBits,
         "run table (end column, right value), 2 rows; SyncReadMem (block RAM)"),
       MemoryUse("PostCols", "rows", (g + 2) * w, 1 + p.rowBits + 1 + 16,
         "(G + 2) row slots: value or fill, marker, end row; SyncReadMem (block RAM)"),

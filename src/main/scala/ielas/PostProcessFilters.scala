@@ -188,7 +188,7 @@ object PostFilters {
   * output's next pixel; no write can meet that read: the output reads a complete row, the input writes the next one.
   */
 class PostRowGaps(p: ElasParams) extends Module {
-  private val vW = p.dispBits + 1
+  private val vW = p.signedDispBits
   val io = IO(new Bundle {
     val in = Flipped(Decoupled(new PostBeat(vW)))
     val out = Decoupled(new PostBeat(16))

@@ -52,7 +52,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   private val fW = math.max(idW, sW)
   private val cap = p.speckleSize
   private val T = p.speckleSimThreshold
-  private val vW = p.dispBits + 1
+  private val vW = p.signedDispBits
   private val seqW = 16 // row sequence counters; engines are never more than ND rows apart
 
   val io = IO(new Bundle {
@@ -409,9 +409,9 @@ object PostProcessSpeckle {
   def memorySummary(p: ElasParams): Seq[MemoryUse] = {
     val (w, idW, sW) = (p.maxWidth, idBits(p), sizeBits(p))
     Seq(
-      MemoryUse("Speckle", "delay", delayRows(p) * w, p.dispBits + 1 + idW,
+      MemoryUse("Speckle", "delay", delayRows(p) * w, p.signedDispBits + idW,
         s"(L + 4) rows x maxWidth, value + node id; SyncReadMem 1R1W (block RAM), read by D"),
-      MemoryUse("Speckle", "upRows", 2 << p.colBits, p.dispBits + 1 + idW,
+      MemoryUse("Speckle", "upRows", 2 << p.colBits, p.signedDispBits + idW,
         "A's last 2^(colBits + 1) >= 2 maxWidth pixels (the row above); SyncReadMem 1R1W (block RAM)"),
       MemoryUse("Speckle", "fmaps", mapRows(p) * w, 1 + math.max(idW, sW),
         "(L + 2) rows x maxWidth forward maps; one SyncReadMem per row, 2 read ports (block RAM)"),

@@ -46,8 +46,8 @@ object FrameSize {
   * -1 = unused slot. Cells stream in grid raster order (eol = last cell of a grid row, eof = last cell).
   */
 class GridCellPair(p: ElasParams) extends Bundle {
-  val left = Vec(p.storedDisparities, SInt((p.dispBits + 1).W))
-  val right = Vec(p.storedDisparities, SInt((p.dispBits + 1).W))
+  val left = Vec(p.storedDisparities, SInt(p.signedDispBits.W))
+  val right = Vec(p.storedDisparities, SInt(p.signedDispBits.W))
 }
 
 /** One plane (stage `planes`, docs/ALGORITHM.md): d(u, v) = (c + a (u - anchorU) + b (v - anchorV) + 2^15) >> 16. */
@@ -72,8 +72,8 @@ class PlaneCell(p: ElasParams) extends Bundle {
 
 /** Both views' disparities at one pixel (stages `dense` and `lrcheck`), -1 = invalid; raster order. */
 class DisparityPair(p: ElasParams) extends Bundle {
-  val left = SInt((p.dispBits + 1).W)
-  val right = SInt((p.dispBits + 1).W)
+  val left = SInt(p.signedDispBits.W)
+  val right = SInt(p.signedDispBits.W)
 }
 
 /** Hands every beat of `in` to all `n` outputs. Each output may take it in a different cycle; the beat leaves `in`

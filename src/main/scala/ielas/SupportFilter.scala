@@ -26,11 +26,11 @@ class SupportFilter(p: ElasParams) extends Module {
   private val colsMax = p.latticeColsMax
   private val colW = log2Ceil(colsMax + 1) + 1
   private val rowW = log2Ceil(p.latticeRowsMax + 1) + 1
-  private val valueType = SInt((p.dispBits + 1).W)
+  private val valueType = SInt(p.signedDispBits.W)
 
   val io = IO(new Bundle {
-    val in = Flipped(Decoupled(new Framed(SInt((p.dispBits + 1).W))))
-    val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
+    val in = Flipped(Decoupled(new Framed(SInt(p.signedDispBits.W))))
+    val out = Decoupled(new Framed(SInt(p.signedDispBits.W)))
   })
 
   // ---- input side ----
@@ -195,6 +195,6 @@ object SupportFilter {
   def slots(p: ElasParams): Int = 2 * p.inconWindowSize + 2
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
-    MemoryUse("Filter", "rows", p.latticeColsMax, slots(p) * (p.dispBits + 1),
-      s"${slots(p)} lattice rows of ${p.dispBits + 1}-bit values, one SyncReadMem 1R1W per row"))
+    MemoryUse("Filter", "rows", p.latticeColsMax, slots(p) * p.signedDispBits,
+      s"${slots(p)} lattice rows of ${p.signedDispBits}-bit values, one SyncReadMem 1R1W per row"))
 }

@@ -65,7 +65,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   private val descBits = 8 * p.descriptorBytes
   private val costBits = SupportMatcher.costBits(p)
   private val costInf = ((1 << costBits) - 1).U(costBits.W) // above every real cost
-  private val colW = math.max(p.colBits, p.dispBits + 1) + 2 // signed column arithmetic (window starts may be < 0)
+  private val colW = math.max(p.colBits, p.signedDispBits) + 2 // signed column arithmetic (window starts may be < 0)
   private val rowW = p.rowBits + 1
   private val baseW = p.dispBits + 2
   private val firstRow = (margin + step - 1) / step * step // first lattice row that can hold supports
@@ -81,7 +81,7 @@ class SupportMatcher(p: ElasParams) extends Module {
     val in = Flipped(Decoupled(new Framed(new DescriptorPair(p.descriptorBytes))))
     val frameWidth = Input(UInt(p.colBits.W))
     val frameHeight = Input(UInt(p.rowBits.W))
-    val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
+    val out = Decoupled(new Framed(SInt(p.signedDispBits.W)))
   })
 
   // ---- frame state ----
@@ -359,7 +359,7 @@ class SupportMatcher(p: ElasParams) extends Module {
 
   // ---- output register ----
   val outValid = RegInit(false.B)
-  val outBits = Reg(new Framed(SInt((p.dispBits + 1).W)))
+  val outBits = Reg(new Framed(SInt(p.signedDispBits.W)))
   val outFree = !outValid || io.out.ready
   when(io.out.fire) { outValid := false.B }
   io.out.valid := outValid
@@ -401,7 +401,7 @@ class SupportMatcher(p: ElasParams) extends Module {
     jLo := blockOf(u - r.U - dhiL)
     state := sSweep
   }
-  val none = (-1).S((p.dispBits + 1).W)
+  val none = (-1).S(p.signedDispBits.W)
   def ratioOk(b: Best): Bool = (b.e1 * 100.U) < (b.e2 * p.supportThresholdPercent.U)
 
   // The left decision's right sweep setup for one d1 (both candidates are computed, the merge picks one).

@@ -146,7 +146,7 @@ object GridVectorSpec {
     val nodes = lh * lw
     val beats = frames.iterator.flatMap(a => Iterator.range(0, nodes).map(i =>
       (a(i.toLong), i == 0, i % lw == lw - 1, i == nodes - 1)))
-    val mask = (BigInt(1) << (p.dispBits + 1)) - 1
+    val mask = (BigInt(1) << p.signedDispBits) - 1
     run[Framed[chisel3.UInt], Framed[GridCellPair], (Int, Boolean, Boolean, Boolean), GridBeat](dut.clock,
       dut.io.lattice, beats,
       (bits, b) => { poke(bits.data, BigInt(b._1) & mask); poke(bits.sof, b._2); poke(bits.eol, b._3); poke(bits.eof, b._4) },
@@ -264,7 +264,7 @@ class GridVectorTestTop(p: ElasParams) extends chisel3.Module {
   import chisel3.util.Decoupled
   val io = IO(new Bundle {
     val chain = new GridVectorChainIO(p)
-    val lattice = Flipped(Decoupled(new Framed(UInt((p.dispBits + 1).W))))
+    val lattice = Flipped(Decoupled(new Framed(UInt(p.signedDispBits.W))))
     val grid = Decoupled(new Framed(new GridCellPair(p)))
     val latticeStalls = Output(UInt(32.W))
   })

@@ -47,7 +47,7 @@ class LatticeChainIO(p: ElasParams) extends Bundle {
   val in = Flipped(Decoupled(new PixelPair))
   val frameWidth = Input(UInt(p.colBits.W))
   val frameHeight = Input(UInt(p.rowBits.W))
-  val out = Decoupled(new Framed(SInt((p.dispBits + 1).W)))
+  val out = Decoupled(new Framed(SInt(p.signedDispBits.W)))
 }
 
 /** A stage-test chain from pixel pairs to a lattice stream. */
@@ -125,7 +125,7 @@ class GridVectorChain(p: ElasParams) extends Module {
   */
 class EarlyBeat(p: ElasParams) extends Bundle {
   val isGrid = Bool()
-  val lattice = new Framed(SInt((p.dispBits + 1).W))
+  val lattice = new Framed(SInt(p.signedDispBits.W))
   val grid = new Framed(new GridCellPair(p))
 }
 
@@ -144,7 +144,7 @@ class EarlyPathChain(p: ElasParams) extends Module {
   filtered.io.in <> io.in
   filtered.io.frameWidth := io.frameWidth
   filtered.io.frameHeight := io.frameHeight
-  val fork = Module(new StreamFork(new Framed(SInt((p.dispBits + 1).W)), 2))
+  val fork = Module(new StreamFork(new Framed(SInt(p.signedDispBits.W)), 2))
   fork.io.in <> filtered.io.out
   val fill = Module(new LatticeFill(p))
   val grid = Module(new GridVector(p))

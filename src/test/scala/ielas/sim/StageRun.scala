@@ -38,7 +38,7 @@ object StageRun {
   case class Layout(beats: Int, rowLength: Int, unpack: Seq[BigInt] => Seq[(String, String, Seq[Int], Array[Long])])
 
   def layout(p: ElasParams, stage: Stage, w: Int, h: Int): Layout = {
-    val vb = p.dispBits + 1
+    val vb = p.signedDispBits
     val (lh, lw) = (p.latticeCount(h), p.latticeCount(w))
     val (gh, gw) = (p.gridCount(h), p.gridCount(w))
     def lattice(name: String) = Layout(lh * lw, lw, beats => Seq((name, "<i2", Seq(lh, lw), beats.map(b => fields(b, Seq((vb, true))).head).toArray)))
