@@ -200,7 +200,7 @@ done
   echo "pair \`${LEFT#$DATA/}\`, \`$(basename "$RIGHT")\`; Verilator $(verilator --version | cut -d' ' -f2);"
   echo "harness build $(cat "$DIR/build_seconds" 2>/dev/null || echo '?') s (not included in the simulation times); $(nproc) cores."
   echo
-  echo "| run | frame | frames | cycles | cycles/pixel | fps@200MHz | latency rows | c = cycles - (pixels + rows*W) | simulation (wall, speed) |"
+  echo "| run | frame | frames | cycles | cycles/pixel | fps@200MHz (assumed) | latency rows | c = cycles - (pixels + rows*W) | simulation (wall, speed) |"
   echo "|---|---|---|---|---|---|---|---|---|"
   printf '%s\n' "${ROWS[@]}"
 } > "$OUT/performance.md"

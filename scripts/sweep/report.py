@@ -127,7 +127,7 @@ def plots(rows, outdir, prefix=""):
     fig, axes = plt.subplots(1, 2, figsize=(9, 4))
     res = sorted({r["resolution"] for r in ok if num(r, "fps_200MHz") is not None},
                  key=lambda x: -int(next(r["maxWidth"] for r in ok if r["resolution"] == x)))
-    for ax, key, label in ((axes[0], "fps_200MHz", "frames/s at 200 MHz"), (axes[1], "latency_rows", "latency (rows)")):
+    for ax, key, label in ((axes[0], "fps_200MHz", "frames/s at an assumed 200 MHz"), (axes[1], "latency_rows", "latency (rows)")):
         vals = [num(by_point(ok, NAMED_POINTS[x]), key) if x in NAMED_POINTS and by_point(ok, NAMED_POINTS[x])
                 and num(by_point(ok, NAMED_POINTS[x]), key) is not None else
                 max(num(r, key) for r in ok if r["resolution"] == x and num(r, key) is not None) for x in res]
@@ -183,12 +183,12 @@ def how_to_choose(rows, provisional):
     levels = [(num(r, "lut_levels"), r["point"]) for r in rows if num(r, "lut_levels") is not None]
     if levels:
         lo, hi = min(levels), max(levels)
-        out.append(f"- **Clock**: the fps column is the cycle model at an assumed 200 MHz. The clock proxy says the "
-                   f"RTL is not there yet: the longest path is {fmt(lo[0])} to {fmt(hi[0])} LUT levels ({hi[1]}; "
-                   "docs/synthesis.md: the post-processing row ring's slot arithmetic at kitti, the speckle stage's region "
-                   "bookkeeping through its LUT-RAM at tsukuba), where a 5 ns period leaves room for roughly 5-8 levels "
-                   "of LUT and routing on a 7-series part (a rule of thumb, not measured here); expect a fraction of "
-                   "that clock until those paths are pipelined.")
+        out.append(f"- **Clock**: the fps column is the cycle model at an assumed 200 MHz, not a measured clock. The "
+                   f"LUT lvl column is the logic-depth estimate: {fmt(lo[0])} to {fmt(hi[0])} LUT levels ({hi[1]} the "
+                   "deepest), where a 5 ns period leaves room for roughly 5-8 levels of LUT and routing on a 7-series "
+                   "part (a rule of thumb). Measured clocks are in docs/timing.md (`make timing`): each stage placed "
+                   "and routed on its own on an ECP5 LFE5U-85F with nextpnr, and a logic-only Yosys `sta` for the "
+                   "7-series mapping.")
     for res, pts in s20.items():
         pts = [r for r in pts if num(r, "BRAM36eq") is not None and num(r, "LUTRAM_sites") is not None]
         for a, b in zip(pts, pts[1:]):
@@ -316,7 +316,7 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
             ("win", "windowSize"), ("lanes s/d", None), ("LUT", "LUT"), ("LUT-RAM", "LUTRAM_sites"), ("FF", "FF"), ("RAMB36", "RAMB36E1"),
             ("RAMB18", "RAMB18E1"), ("BRAM36eq", "BRAM36eq"), ("DSP", "DSP48E1"), ("LUT lvl", "lut_levels"),
             ("gen. memory bits", "gen_memory_bits"), ("gen. BRAM36 (capacity)", "gen_memory_bram36"),
-            ("cycles/px", "cycles_per_pixel"), ("fps@200MHz", "fps_200MHz"), ("latency rows", "latency_rows"),
+            ("cycles/px", "cycles_per_pixel"), ("fps@200MHz (assumed)", "fps_200MHz"), ("latency rows", "latency_rows"),
             ("rob. bad-3", "robotics_bad3"), ("rob. D1", "robotics_d1"), ("rob. density", "robotics_density"),
             ("mb. bad-3", "middlebury_bad3"), ("mb. D1", "middlebury_d1"), ("mb. density", "middlebury_density"),
             ("status", "status")]
@@ -342,7 +342,7 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
                                                  if r.get("accuracy_pairs")})) + ".", ""]
 
     per_pair = []
-    cache = os.path.join(outdir, "sweep", "cache", "accuracy") if grid_name == "full" else None
+    cache = os.path.join(ROOT, "sweep-cache", "accuracy") if grid_name == "full" else None
     for point in (NAMED_POINTS.values() if cache and os.path.isdir(cache) else ()):
         for pset in grid.PARAMETER_SETS:
             cname = grid.by_name(point).config_name(pset)
@@ -362,7 +362,7 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
         L += ["## Against the iELAS paper", "",
               "The paper's figures are for the whole accelerator (Vivado, Virtex-7 XC7VX485T; Table II resources, "
               "Tables III-IV speed); ours are Yosys `synth_xilinx` (another mapper: compare orders of magnitude) "
-              "and the cycle model at 200 MHz.", "",
+              "and the cycle model at an assumed 200 MHz.", "",
               "| | size | LUT | FF | BRAM36eq | fps | latency |", "|---|---|---:|---:|---:|---:|---|"]
         lut_note = []
         for res, point in NAMED_POINTS.items():
@@ -474,7 +474,8 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
           "- **Cycle model** (analytic): one W x H frame at 1 pixel per clock with no input gaps and no "
           "back-pressure takes the no-stall bound of docs/interfaces.md section 4, cycles = W*H + latencyRows*W + c, "
           "with latencyRows and c from `IElas.latencyRows` / `IElas.cycleSlack` (the same figures the stage tests "
-          "check as a bound). cycles/px = cycles / (W*H); fps = 200 MHz / cycles (no blanking counted). "
+          "check as a bound). cycles/px = cycles / (W*H); fps = 200 MHz / cycles at an assumed 200 MHz clock (no blanking "
+          "counted; measured clocks: docs/timing.md). "
           "At least two points per resolution, kitti d255 among them, go through the Verilator hardware "
           "(`make sweep-hwcheck`, section above).",
           "- **Accuracy**: the golden `ielas` model with the point's configuration (robotics and its middlebury "

@@ -360,7 +360,8 @@ class ReportAndCheckTest(unittest.TestCase):
         by["tsukuba-d127-s20-w5"].update(BRAM36eq="54.5", LUTRAM_sites="49000")
         text = report.how_to_choose(rows, False)
         self.assertIn("kitti: d63 250 000 (fits), d127 350 000 (does not fit)", text)  # 303 600 LUT on the XC7VX485T
-        self.assertIn("the longest path is 8 to 59 LUT levels (kitti-d63-s20-w5", text)
+        self.assertIn("8 to 59 LUT levels (kitti-d63-s20-w5 the deepest)", text)
+        self.assertIn("an assumed 200 MHz, not a measured clock", text)
         self.assertIn("at tsukuba: dispMax 63 -> 127 takes BRAM36eq 180 -> 54.5 while LUT-RAM sites go 26 000 -> "
                       "49 000", text)
         self.assertNotIn("BRAM is not monotonic** at kitti", text)
