@@ -108,7 +108,8 @@ object SupportFilterSpec {
     val c = SupportFilterSpec.drainSlack(p, w, h)
     (base + c, s"support bound + $c")
   }
-  /** Draining the rows after the last input pixel: at most (2k + 4) cycles per node of the last k + 1 rows. */
+  /** Draining the rows after the last input pixel: at most 2k + 5 cycles per node (a support node; the stage's
+    * documented schedule) of the last k + 1 rows. */
   def drainSlack(p: ElasParams, w: Int, h: Int): Int =
-    (p.inconWindowSize + 1) * p.latticeCount(w) * (2 * p.inconWindowSize + 4)
+    (p.inconWindowSize + 1) * p.latticeCount(w) * (2 * p.inconWindowSize + 5)
 }
