@@ -131,7 +131,7 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
     m.io.out.toSeq
   }
   val interp: DecoupledIO[Framed[SInt]] = if (!needs(Stage.Interp)) null else {
-    val m = Module(new LatticeFill(p))
+    val m = Module(LatticeFill(p))
     m.io.in <> filterFork.head
     sized(m.io.in.bits.sof, m.io.in.fire, m.io.frameWidth, m.io.frameHeight)
     m.io.out

@@ -38,18 +38,17 @@ import chisel3.util._
   * stalls only when the slot of the row to be written is still needed (or a new frame arrives while the previous
   * one is still being filled); the output register stalls the walk. Any gaps are fine.
   */
-class LatticeFill(p: ElasParams) extends Module {
-  private val paper = p.fillRule == FillRule.Paper
-  private val step = p.candidateStep
-  private val reach = p.sDelta / step // R: lattice rows within sDelta of a node (plus possibly a clipped last row)
-  private val slots = LatticeFill.slots(p)
+abstract class LatticeFill(p: ElasParams) extends Module {
+  override def desiredName = "LatticeFill" // one Verilog module name for either rule
+  protected val step = p.candidateStep
+  protected val slots = LatticeFill.slots(p)
   private val slotBits = log2Ceil(slots)
-  private val colsMax = p.latticeColsMax
-  private val idxW = LatticeFill.idxBits(p) // column index or count 0..colsMax
+  protected val colsMax = p.latticeColsMax
+  protected val idxW = LatticeFill.idxBits(p) // column index or count 0..colsMax
   private val rowW = log2Ceil(p.latticeRowsMax + slots + 1) + 1
-  private val coordW = LatticeFill.coordBits(p)
-  private val dBits = p.dispBits
-  private val valueType = SInt((dBits + 1).W)
+  protected val coordW = LatticeFill.coordBits(p)
+  protected val dBits = p.dispBits
+  protected val valueType = SInt((dBits + 1).W)
 
   val io = IO(new Bundle {
     val in = Flipped(Decoupled(new Framed(SInt(p.signedDispBits.W))))
@@ -124,15 +123,6 @@ class LatticeFill(p: ElasParams) extends Module {
     }
   }
 
-  // ---- paper: the full values of every slot, one memory per slot (a column of the look-ahead per read) ----
-  val ring = if (paper) Seq.fill(slots)(SyncReadMem(colsMax, valueType)) else Nil
-  if (paper) { // as lateWrite, with one set of registers for all slots
-    val e = RegNext(VecInit((0 until slots).map(s => write && writeSlot === s.U)), VecInit(Seq.fill(slots)(false.B)))
-    val a = RegEnable(col(writeCol), write)
-    val d = RegEnable(io.in.bits.data, write)
-    for ((mem, s) <- ring.zipWithIndex) when(e(s)) { mem.write(a, d) }
-  }
-
   // ---- the walk over the rows ----
   val sIdle :: sRowWait :: sRead :: sNode :: sDiv :: sEmit :: Nil = Enum(6)
   val state = RegInit(sIdle)
@@ -170,164 +160,17 @@ class LatticeFill(p: ElasParams) extends Module {
   val lo = Mux(aVal < bVal, aVal, bVal)
   val hi = Mux(aVal < bVal, bVal, aVal)
 
-  val value = Wire(UInt(dBits.W))
-  val here = Wire(Bool()) //         the node holds a support ...
-  val hereVal = Wire(UInt(dBits.W)) // ... of this value
-  val doEmit = WireDefault(false.B)
-  val pairStep = WireDefault(false.B) // r7: an interpolated node advances the pair's (q, r)
   val eol = i === lw - 1.U
   val eof = eol && frameDone && procJ === rowsIn - 1.U
 
-  if (!paper) {
-    // ---- r7 ----
-    val eps = p.fillEpsilon
-    val above = SyncReadMem(colsMax, UInt(dBits.W)) // the filled row above; node i read before it is rewritten
-    val up = above.read(col(i))
-    val near = absDiff(aVal, bVal) <= eps.U
-
-    // The pair's division: 2D = 2G qd + rd with 0 <= rd < 2G (D = bVal - aVal, G = bIdx - aIdx), then per node
-    // (q, r) <- (q + qd, r + rd), carrying 2G into q: q = d_a + floor((G + 2tD) / (2G)) at node a + t.
-    val gW = idxW
-    val segReady = Reg(Bool())
-    val g = Reg(UInt(gW.W))
-    val qd = Reg(SInt((dBits + 2).W))
-    val rd = Reg(UInt((gW + 1).W))
-    val segQ = Reg(SInt((dBits + 2).W))
-    val segR = Reg(UInt((gW + 2).W))
-    val divNum = Reg(UInt(dBits.W)) // |D| shifted out, quotient shifted in
-    val divRem = Reg(UInt(gW.W))
-    val divCnt = Reg(UInt(log2Ceil(dBits + 1).W))
-    val divNeg = Reg(Bool())
-
-    val rSum = segR +& rd
-    val carry = rSum >= (g << 1)
-    val qNext = segQ + qd + carry.asUInt.zext
-    val rNext = Mux(carry, rSum - (g << 1), rSum)
-
-    val needDiv = useList && !bHere && both && near && !segReady
-
-    // decide (sNode) into registers, emit (sEmit): the memory reads and the jump / pair arithmetic sit in
-    // different cycles (3 cycles per node)
-    val selHere = Reg(Bool()) //  a support: selVal
-    val selOne = Reg(Bool()) //   a copy, row 0 all zero, or one side only: selVal
-    val selPair = Reg(Bool()) //  interpolated: (q, r) of the pair
-    val selVal = Reg(UInt(dBits.W))
-    val rLo = Reg(UInt(dBits.W))
-    val rHi = Reg(UInt(dBits.W))
-    val rUp = Reg(UInt(dBits.W))
-    when(state === sNode && !needDiv) {
-      selHere := useList && bHere
-      selOne := zeros || !useList || bHere || !aValid || !kIn
-      selPair := useList && !bHere && both && near
-      selVal := Mux(zeros, 0.U, Mux(!useList, up, Mux(bHere || !aValid, bVal, aVal)))
-      rLo := lo
-      rHi := hi
-      rUp := up
-      state := sEmit
-    }
-    val jump = Mux(useAbove && absDiff(rHi, rUp) < absDiff(rLo, rUp), rHi, rLo) // a tie goes to lo
-    value := Mux(selOne, selVal, Mux(selPair, qNext.asUInt(dBits - 1, 0), jump))
-
-    when(state === sNode && needDiv) {
-      val gNew = bIdx - aIdx
-      g := gNew
-      divNum := absDiff(bVal, aVal)
-      divNeg := bVal < aVal
-      divRem := 0.U
-      divCnt := 0.U
-      state := sDiv
-    }
-    when(state === sDiv) {
-      val shifted = Cat(divRem, divNum(dBits - 1))
-      val ge = shifted >= g
-      val rem = Mux(ge, shifted - g, shifted)
-      divRem := rem
-      divNum := Cat(divNum(dBits - 2, 0), ge)
-      divCnt := divCnt + 1.U
-      when(divCnt === (dBits - 1).U) {
-        val q0 = Cat(divNum(dBits - 2, 0), ge).zext
-        // floor and a non-negative remainder for a negative D
-        qd := Mux(divNeg, Mux(rem === 0.U, -q0, -q0 - 1.S), q0)
-        rd := Mux(divNeg && rem =/= 0.U, g - rem, rem) << 1
-        segQ := aVal.zext
-        segR := g
-        segReady := true.B
-        state := sNode
-      }
-    }
-    lateWrite(above, doEmit, col(i), value)
-    when(doEmit) {
-      when(pairStep) { segQ := qNext; segR := rNext }
-      when(selHere) { segReady := false.B }
-    }
-    when(state === sRowWait) { segReady := false.B }
-    pairStep := selPair
-    doEmit := state === sEmit && outFree
-    here := selHere
-    hereVal := selVal
-  } else {
-    // ---- paper ----
-    val sDelta = p.sDelta.U
-    def clip(x: UInt, last: UInt): UInt = Mux(x > last, last, x)
-    def pair(x: UInt, y: UInt): UInt = Mux(absDiff(x, y) <= p.epsilon.U, ((x +& y +& 1.U) >> 1)(dBits - 1, 0), Mux(x < y, x, y))
-
-    val aU = Reg(UInt(coordW.W))
-    val u = clip(uRaw, wLast)
-    // b right of i within sDelta px: (b - i) step <= sDelta unless b is the last column, whose pixel column W - 1
-    // may be nearer than a step (a support left of i is never the last column, so aU = a step)
-    val bReach = Mux(bIdx === lw - 1.U, wLast - uRaw <= sDelta, bIdx - i <= reach.U)
-    val horizontal = aValid && u - aU <= sDelta && kIn && bReach
-
-    // last support above in this column (valid, pixel row, value)
-    val lastAbove = SyncReadMem(colsMax, UInt((1 + coordW + dBits).W))
-    val la = lastAbove.read(col(i))
-    val laValid = la(coordW + dBits)
-    val laV = la(coordW + dBits - 1, dBits)
-    val laVal = la(dBits - 1, 0)
-    val v = Reg(UInt(coordW.W)) // pixel row of procJ, set at row start
-    val topOk = procJ =/= 0.U && laValid && v - laV <= sDelta
-
-    // nearest support below within sDelta px: offsets 1 .. R + 1 of the ring (R + 2 is never within reach, and its
-    // slot may be the one being written), first hit wins
-    val column = ring.map(_.read(col(i)))
-    // Whether row procJ + o exists and lies within sDelta px is fixed for the whole row (every such row is complete
-    // before the row starts): one register per offset, set at row start.
-    val offsets = 1 to math.min(reach + 1, slots - 1)
-    val rowOk = Reg(Vec(offsets.length, Bool()))
-    when(state === sRowWait) {
-      v := clip(vRaw, hLast)
-      for ((o, x) <- offsets.zipWithIndex)
-        rowOk(x) := procJ +& o.U < rowsIn && clip(vRaw +& (o * step).U, hLast) - clip(vRaw, hLast) <= sDelta
-    }
-    val below = offsets.zipWithIndex.map { case (o, x) =>
-      val d = VecInit((0 until slots).map(s => column((s + o) % slots)))(procSlot) // row procJ + o
-      (rowOk(x) && d >= 0.S, d.asUInt(dBits - 1, 0))
-    }
-    val bottomOk = below.map(_._1).reduce(_ || _)
-    val bottom = PriorityMux(below.map(_._1) :+ true.B, below.map(_._2) :+ 0.U(dBits.W))
-    val vertical = topOk && bottomOk
-
-    // decide (sNode) into registers, then emit (sEmit): the memory reads and the pair arithmetic sit in different
-    // cycles (3 cycles per node, far below step^2)
-    val selSup = Reg(Bool())
-    val selPair = Reg(Bool())
-    val pa = Reg(UInt(dBits.W))
-    val pb = Reg(UInt(dBits.W))
-    when(state === sNode) {
-      selSup := bHere
-      selPair := horizontal || vertical
-      pa := Mux(bHere || horizontal, Mux(bHere, bVal, aVal), laVal)
-      pb := Mux(horizontal, bVal, bottom)
-      state := sEmit
-    }
-    value := Mux(selSup, pa, Mux(selPair, pair(pa, pb), p.fillC.U))
-    here := selSup
-    hereVal := pa
-    doEmit := state === sEmit && outFree
-
-    when(doEmit && selSup) { aU := u }
-    lateWrite(lastAbove, doEmit && (procJ === 0.U || selSup), col(i), Cat(selSup, v, pa)) // row 0 clears the previous frame
-  }
+  /** The rule's decision for node i, driven by the subclass: the value to emit, whether the node holds a support (and
+    * its value), and whether the node is emitted this cycle (in sEmit, when the output register is free). */
+  protected val value = Wire(UInt(dBits.W))
+  protected val here = Wire(Bool())
+  protected val hereVal = Wire(UInt(dBits.W))
+  protected val doEmit = Wire(Bool())
+  /** The rows the rule needs before row procJ starts are in. */
+  protected val rowReady = Wire(Bool())
 
   // ---- row sequencing ----
   val c = counts
@@ -336,24 +179,13 @@ class LatticeFill(p: ElasParams) extends Module {
       when(start) { procJ := 0.U; procSlot := 0.U; vRaw := 0.U; state := sRowWait }
     }
     is(sRowWait) {
-      val ready = if (paper) frameDone || rowsIn > procJ +& (reach + 1).U
-                  else frameDone || Mux(procJ === 0.U, rowsIn >= 3.U, rowsIn > procJ)
-      when(ready) {
+      when(rowReady) {
         i := 0.U; k := 0.U; aValid := false.B; uRaw := 0.U
         listPtr := slotBase(procSlot)
         n := c(procSlot)
-        useList := c(procSlot) =/= 0.U || paper.B
+        useList := c(procSlot) =/= 0.U
         useAbove := procJ =/= 0.U
         zeros := false.B
-        if (!paper) when(procJ === 0.U && c(0) === 0.U) {
-          // row 0 (never a support row): the first of rows 1..2 with a support, filled without a row above
-          val one = rowsIn > 1.U && c(1) =/= 0.U
-          val two = rowsIn > 2.U && c(2) =/= 0.U
-          listPtr := Mux(one, colsMax.U, (2 * colsMax).U)
-          n := Mux(one, c(1), c(2))
-          useList := one || two
-          zeros := !one && !two
-        }
         state := sRead
       }
     }
@@ -379,7 +211,196 @@ class LatticeFill(p: ElasParams) extends Module {
   }
 }
 
+/** The r7 rule (the class doc of [[LatticeFill]]): a support keeps its value; a node between two supports within
+  * fillEpsilon is interpolated linearly, between two farther apart it takes the one nearer the filled value above (the
+  * lower one on row 0 or a tie), beside one support only it takes that one; a row without a support copies the row above; row
+  * 0 is filled from the first of rows 1..2 with a support (all 0 if neither has one).
+  */
+class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
+  private val pairStep = WireDefault(false.B) // an interpolated node advances the pair's (q, r)
+  val eps = p.fillEpsilon
+  val above = SyncReadMem(colsMax, UInt(dBits.W)) // the filled row above; node i read before it is rewritten
+  val up = above.read(col(i))
+  val near = absDiff(aVal, bVal) <= eps.U
+
+  // The pair's division: 2D = 2G qd + rd with 0 <= rd < 2G (D = bVal - aVal, G = bIdx - aIdx), then per node
+  // (q, r) <- (q + qd, r + rd), carrying 2G into q: q = d_a + floor((G + 2tD) / (2G)) at node a + t.
+  val gW = idxW
+  val segReady = Reg(Bool())
+  val g = Reg(UInt(gW.W))
+  val qd = Reg(SInt((dBits + 2).W))
+  val rd = Reg(UInt((gW + 1).W))
+  val segQ = Reg(SInt((dBits + 2).W))
+  val segR = Reg(UInt((gW + 2).W))
+  val divNum = Reg(UInt(dBits.W)) // |D| shifted out, quotient shifted in
+  val divRem = Reg(UInt(gW.W))
+  val divCnt = Reg(UInt(log2Ceil(dBits + 1).W))
+  val divNeg = Reg(Bool())
+
+  val rSum = segR +& rd
+  val carry = rSum >= (g << 1)
+  val qNext = segQ + qd + carry.asUInt.zext
+  val rNext = Mux(carry, rSum - (g << 1), rSum)
+
+  val needDiv = useList && !bHere && both && near && !segReady
+
+  // decide (sNode) into registers, emit (sEmit): the memory reads and the jump / pair arithmetic sit in
+  // different cycles (3 cycles per node)
+  val selHere = Reg(Bool()) //  a support: selVal
+  val selOne = Reg(Bool()) //   a copy, row 0 all zero, or one side only: selVal
+  val selPair = Reg(Bool()) //  interpolated: (q, r) of the pair
+  val selVal = Reg(UInt(dBits.W))
+  val rLo = Reg(UInt(dBits.W))
+  val rHi = Reg(UInt(dBits.W))
+  val rUp = Reg(UInt(dBits.W))
+  when(state === sNode && !needDiv) {
+    selHere := useList && bHere
+    selOne := zeros || !useList || bHere || !aValid || !kIn
+    selPair := useList && !bHere && both && near
+    selVal := Mux(zeros, 0.U, Mux(!useList, up, Mux(bHere || !aValid, bVal, aVal)))
+    rLo := lo
+    rHi := hi
+    rUp := up
+    state := sEmit
+  }
+  val jump = Mux(useAbove && absDiff(rHi, rUp) < absDiff(rLo, rUp), rHi, rLo) // a tie goes to lo
+  value := Mux(selOne, selVal, Mux(selPair, qNext.asUInt(dBits - 1, 0), jump))
+
+  when(state === sNode && needDiv) {
+    val gNew = bIdx - aIdx
+    g := gNew
+    divNum := absDiff(bVal, aVal)
+    divNeg := bVal < aVal
+    divRem := 0.U
+    divCnt := 0.U
+    state := sDiv
+  }
+  when(state === sDiv) {
+    val shifted = Cat(divRem, divNum(dBits - 1))
+    val ge = shifted >= g
+    val rem = Mux(ge, shifted - g, shifted)
+    divRem := rem
+    divNum := Cat(divNum(dBits - 2, 0), ge)
+    divCnt := divCnt + 1.U
+    when(divCnt === (dBits - 1).U) {
+      val q0 = Cat(divNum(dBits - 2, 0), ge).zext
+      // floor and a non-negative remainder for a negative D
+      qd := Mux(divNeg, Mux(rem === 0.U, -q0, -q0 - 1.S), q0)
+      rd := Mux(divNeg && rem =/= 0.U, g - rem, rem) << 1
+      segQ := aVal.zext
+      segR := g
+      segReady := true.B
+      state := sNode
+    }
+  }
+  lateWrite(above, doEmit, col(i), value)
+  when(doEmit) {
+    when(pairStep) { segQ := qNext; segR := rNext }
+    when(selHere) { segReady := false.B }
+  }
+  when(state === sRowWait) { segReady := false.B }
+  pairStep := selPair
+  doEmit := state === sEmit && outFree
+  here := selHere
+  hereVal := selVal
+
+  rowReady := frameDone || Mux(procJ === 0.U, rowsIn >= 3.U, rowsIn > procJ)
+  // row 0 (never a support row): the first of rows 1..2 with a support, filled without a row above
+  when(state === sRowWait && rowReady && procJ === 0.U && counts(0) === 0.U) {
+    val one = rowsIn > 1.U && counts(1) =/= 0.U
+    val two = rowsIn > 2.U && counts(2) =/= 0.U
+    listPtr := Mux(one, colsMax.U, (2 * colsMax).U)
+    n := Mux(one, counts(1), counts(2))
+    useList := one || two
+    zeros := !one && !two
+  }
+}
+
+/** The paper's rule (the class doc of [[LatticeFill]]): a support keeps its value; otherwise a horizontal pair of
+  * supports within sDelta pixels, else a vertical one, gives their mean (or the smaller when they differ by more
+  * than epsilon); otherwise fillC.
+  */
+class LatticeFillPaper(p: ElasParams) extends LatticeFill(p) {
+  private val reach = p.sDelta / step // R: lattice rows within sDelta of a node (plus possibly a clipped last row)
+  // the full values of every slot, one memory per slot (a column of the look-ahead per read), written as lateWrite
+  // does, with one set of registers for all slots
+  val ring = Seq.fill(slots)(SyncReadMem(colsMax, valueType))
+  locally {
+    val e = RegNext(VecInit((0 until slots).map(s => write && writeSlot === s.U)), VecInit(Seq.fill(slots)(false.B)))
+    val a = RegEnable(col(writeCol), write)
+    val d = RegEnable(io.in.bits.data, write)
+    for ((mem, s) <- ring.zipWithIndex) when(e(s)) { mem.write(a, d) }
+  }
+  val sDelta = p.sDelta.U
+  def clip(x: UInt, last: UInt): UInt = Mux(x > last, last, x)
+  def pair(x: UInt, y: UInt): UInt = Mux(absDiff(x, y) <= p.epsilon.U, ((x +& y +& 1.U) >> 1)(dBits - 1, 0), Mux(x < y, x, y))
+
+  val aU = Reg(UInt(coordW.W))
+  val u = clip(uRaw, wLast)
+  // b right of i within sDelta px: (b - i) step <= sDelta unless b is the last column, whose pixel column W - 1
+  // may be nearer than a step (a support left of i is never the last column, so aU = a step)
+  val bReach = Mux(bIdx === lw - 1.U, wLast - uRaw <= sDelta, bIdx - i <= reach.U)
+  val horizontal = aValid && u - aU <= sDelta && kIn && bReach
+
+  // last support above in this column (valid, pixel row, value)
+  val lastAbove = SyncReadMem(colsMax, UInt((1 + coordW + dBits).W))
+  val la = lastAbove.read(col(i))
+  val laValid = la(coordW + dBits)
+  val laV = la(coordW + dBits - 1, dBits)
+  val laVal = la(dBits - 1, 0)
+  val v = Reg(UInt(coordW.W)) // pixel row of procJ, set at row start
+  val topOk = procJ =/= 0.U && laValid && v - laV <= sDelta
+
+  // nearest support below within sDelta px: offsets 1 .. R + 1 of the ring (R + 2 is never within reach, and its
+  // slot may be the one being written), first hit wins
+  val column = ring.map(_.read(col(i)))
+  // Whether row procJ + o exists and lies within sDelta px is fixed for the whole row (every such row is complete
+  // before the row starts): one register per offset, set at row start.
+  val offsets = 1 to math.min(reach + 1, slots - 1)
+  val rowOk = Reg(Vec(offsets.length, Bool()))
+  when(state === sRowWait) {
+    v := clip(vRaw, hLast)
+    for ((o, x) <- offsets.zipWithIndex)
+      rowOk(x) := procJ +& o.U < rowsIn && clip(vRaw +& (o * step).U, hLast) - clip(vRaw, hLast) <= sDelta
+  }
+  val below = offsets.zipWithIndex.map { case (o, x) =>
+    val d = VecInit((0 until slots).map(s => column((s + o) % slots)))(procSlot) // row procJ + o
+    (rowOk(x) && d >= 0.S, d.asUInt(dBits - 1, 0))
+  }
+  val bottomOk = below.map(_._1).reduce(_ || _)
+  val bottom = PriorityMux(below.map(_._1) :+ true.B, below.map(_._2) :+ 0.U(dBits.W))
+  val vertical = topOk && bottomOk
+
+  // decide (sNode) into registers, then emit (sEmit): the memory reads and the pair arithmetic sit in different
+  // cycles (3 cycles per node, far below step^2)
+  val selSup = Reg(Bool())
+  val selPair = Reg(Bool())
+  val pa = Reg(UInt(dBits.W))
+  val pb = Reg(UInt(dBits.W))
+  when(state === sNode) {
+    selSup := bHere
+    selPair := horizontal || vertical
+    pa := Mux(bHere || horizontal, Mux(bHere, bVal, aVal), laVal)
+    pb := Mux(horizontal, bVal, bottom)
+    state := sEmit
+  }
+  value := Mux(selSup, pa, Mux(selPair, pair(pa, pb), p.fillC.U))
+  here := selSup
+  hereVal := pa
+  doEmit := state === sEmit && outFree
+
+  when(doEmit && selSup) { aU := u }
+  lateWrite(lastAbove, doEmit && (procJ === 0.U || selSup), col(i), Cat(selSup, v, pa)) // row 0 clears the previous frame
+
+  rowReady := frameDone || rowsIn > procJ +& (reach + 1).U
+}
+
 object LatticeFill {
+  /** The fill unit of the configuration's rule. */
+  def apply(p: ElasParams): LatticeFill = p.fillRule match {
+    case FillRule.R7 => new LatticeFillR7(p)
+    case FillRule.Paper => new LatticeFillPaper(p)
+  }
   /** Row slots: r7 keeps rows 0..2 for row 0 plus the row being written; paper keeps rows j .. j + R + 1 plus the
     * row being written (R = floor(sDelta / step)), never more than the whole lattice plus one.
     */

@@ -23,7 +23,7 @@ class LatticeFillSpec extends AnyFlatSpec {
     for (p0 <- distinct.toSeq.sortBy(_.name); rule <- FillRule.all) {
       val p = p0.copy(fillRule = rule)
       val dir = StreamTester.tmpDir(s"interp-elab/${p.name}-${rule.name}")
-      VerilogEmitter.emit(new LatticeFill(p), dir)
+      VerilogEmitter.emit(LatticeFill(p), dir)
       // a lattice row arrives at most once per step pixel rows: step * W clocks at 1 pixel per clock
       val worst = (FrameSize.minWidth to p.maxWidth).map(w => (w, LatticeFill.rowCycles(p, p.latticeCount(w)), p.candidateStep * w))
       val (w, cycles, budget) = worst.maxBy { case (_, c, b) => c.toDouble / b }

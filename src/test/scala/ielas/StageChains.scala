@@ -83,7 +83,7 @@ class SupportFilterChain(p: ElasParams) extends LatticeChain(p) {
 class LatticeFillChain(p: ElasParams) extends LatticeChain(p) {
   val support = Module(new SupportChain(p))
   val filter = Module(new SupportFilter(p))
-  val fill = Module(new LatticeFill(p))
+  val fill = Module(LatticeFill(p))
   support.io.in <> io.in
   support.io.frameWidth := io.frameWidth
   support.io.frameHeight := io.frameHeight
@@ -146,7 +146,7 @@ class EarlyPathChain(p: ElasParams) extends Module {
   filtered.io.frameHeight := io.frameHeight
   val fork = Module(new StreamFork(new Framed(SInt(p.signedDispBits.W)), 2))
   fork.io.in <> filtered.io.out
-  val fill = Module(new LatticeFill(p))
+  val fill = Module(LatticeFill(p))
   val grid = Module(new GridVector(p))
   fill.io.in <> fork.io.out(0)
   grid.io.in <> fork.io.out(1)
