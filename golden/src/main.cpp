@@ -27,7 +27,9 @@ const char* kUsage =
     "                          [--fill-c C] [--grid-keep smallest|votes] [--grid-corners none|nearest] [--time]\n"
     "       ielas-golden dump  --mode ielas (--preset ... | --config ...) --left L --right R --out DIR [same options]\n"
     "       ielas-golden config (--preset robotics|middlebury [--disp-max N] --width W --height H | --config NAME|FILE.json)\n"
-    "                          [--set KEY=VALUE]... [--print]   (load and check a configuration; --print writes it)\n";
+    "                          [--set KEY=VALUE]... [--print] [--try KEY=VALUE]...\n"
+    "                          (load and check a configuration; --print writes it; each --try prints 'ok' or the error\n"
+    "                          of that one change to it, one line each)\n";
 
 bool endsWith(const std::string& s, const std::string& tail) {
   return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
@@ -124,18 +126,21 @@ void writeDisparity(const std::string& out, const cv::Mat& disparity) {
 
 // `config`: loads a configuration (a --preset with a frame size, or --config), applies each --set KEY=VALUE to the
 // card parameters in order (re-deriving and checking every rule after each), and prints nothing (exit 0) or, with
-// --print, the result as JSON. An illegal configuration is the usual one-line error and exit 1.
+// --print, the result as JSON. An illegal configuration is the usual one-line error and exit 1. Each --try KEY=VALUE
+// is applied alone to a copy of the result and prints one line: "ok" or its error (exit 0 either way).
 int runConfig(int argc, char** argv) {
   std::map<std::string, std::string> values;
-  std::vector<std::string> sets;
+  std::vector<std::string> sets, tries;
   bool print = false;
   for (int i = 2; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "--print") {
       print = true;
-    } else if (a == "--preset" || a == "--disp-max" || a == "--config" || a == "--width" || a == "--height" || a == "--set") {
+    } else if (a == "--preset" || a == "--disp-max" || a == "--config" || a == "--width" || a == "--height" || a == "--set" ||
+               a == "--try") {
       if (i + 1 >= argc) throw std::runtime_error("option " + a + " needs a value");
       if (a == "--set") sets.push_back(argv[++i]);
+      else if (a == "--try") tries.push_back(argv[++i]);
       else if (!values.emplace(a, argv[++i]).second) throw std::runtime_error("option " + a + " given twice");
     } else {
       throw std::runtime_error("unknown option '" + a + "'");
@@ -153,12 +158,25 @@ int runConfig(int argc, char** argv) {
     cfg = presetConfig(values["--preset"], dispMax, parseInt("--width", values["--width"], 1, 8192),
                        parseInt("--height", values["--height"], 1, 8192));
   }
-  for (const std::string& kv : sets) {
+  auto apply = [](Config& c, const std::string& option, const std::string& kv) {
     size_t eq = kv.find('=');
-    if (eq == std::string::npos || eq == 0) throw std::runtime_error("--set " + kv + " is not KEY=VALUE");
-    overrideConfig(cfg, kv.substr(0, eq), kv.substr(eq + 1));
-  }
+    if (eq == std::string::npos || eq == 0) throw std::runtime_error(option + " " + kv + " is not KEY=VALUE");
+    overrideConfig(c, kv.substr(0, eq), kv.substr(eq + 1));
+  };
+  for (const std::string& kv : sets) apply(cfg, "--set", kv);
   if (print) std::cout << configToJson(cfg);
+  for (const std::string& kv : tries) {
+    Config c = cfg;
+    try {
+      apply(c, "--try", kv);
+      std::cout << "ok\n";
+    } catch (const std::exception& e) {
+      std::string msg = e.what();
+      for (char& ch : msg)
+        if (ch == '\n') ch = ' ';
+      std::cout << msg << "\n";
+    }
+  }
   return 0;
 }
 

@@ -75,9 +75,14 @@ object ConfigJson {
     }.mkString("{\n", ",\n", "\n  }")
   }
 
-  /** A preset file (golden/configs/presets/<set>.json): the configuration and the parameters that follow the size. */
-  def presetJson(set: ParameterSet): String =
-    renderObject(fields(ElasParams.presetBase(set)) :+ ("presetFollows" -> Raw(ElasParams.presetFollows.map("\"" + _ + "\"").mkString("[", ", ", "]"))))
+  /** A preset file (golden/configs/presets/<set>.json): the configuration, with the SAD lanes automatic (0: they
+    * depend on dispMax, which the preset takes from the command line), and the parameters that follow the size.
+    */
+  def presetJson(set: ParameterSet): String = {
+    val base = ElasParams.presetBase(set)
+    val own = Map[String, Any]("supportLanes" -> base.supportLanes, "denseLanes" -> base.denseLanes)
+    renderObject(fields(base).map { case (k, v) => k -> own.getOrElse(k, v) } :+ ("presetFollows" -> Raw(ElasParams.presetFollows.map("\"" + _ + "\"").mkString("[", ", ", "]"))))
+  }
 
   private def render(v: Any): String = v match {
     case s: String  => "\"" + s + "\""
