@@ -409,7 +409,8 @@ Config presetConfig(const std::string& parameterSet, int dispMax, int width, int
   return c;
 }
 
-void overrideConfig(Config& c, const std::string& key, const std::string& value) {
+void overrideConfig(Config& cfg, const std::string& key, const std::string& value) {
+  Config c = cfg;  // cfg is left as it was when the change is illegal
   if (const IntKey* k = findInt(key)) {
     size_t at = value.size() > 1 && value[0] == '-' ? 1 : 0;
     if (at >= value.size() || value.size() - at > 10 || value.find_first_not_of("0123456789", at) != std::string::npos ||
@@ -428,6 +429,7 @@ void overrideConfig(Config& c, const std::string& key, const std::string& value)
     throw std::runtime_error("configuration: unknown parameter '" + key + "'");
   }
   rederive(c);
+  cfg = c;
 }
 
 std::string configToJson(const Config& c) {

@@ -87,7 +87,8 @@ Config presetConfig(const std::string& parameterSet, int dispMax, int width, int
 std::string presetFile(const std::string& parameterSet);
 
 // Sets the card parameter `key` (a field of ElasParams but the name) from `value`, then recomputes the derived values
-// and the prior table and checks every rule. Throws a one-line message on an unknown key or an illegal value.
+// and the prior table and checks every rule. Throws a one-line message on an unknown key or an illegal value
+// (cfg is then unchanged).
 void overrideConfig(Config& cfg, const std::string& key, const std::string& value);
 
 // The configuration's parameters and derived values as one JSON object (the keys of the configuration JSON but
