@@ -60,7 +60,7 @@ deps-synth:
 	@scripts/install-deps.sh yosys
 
 # ---- parameters ----
-configs: ## regenerate golden/configs/*.json from ElasParams
+configs: ## regenerate golden/configs/*.json and golden/configs/presets/*.json from ElasParams
 	$(call SBT_RUN,"run configs golden/configs")
 
 # ---- golden model ----

@@ -25,7 +25,11 @@ const char* kUsage =
     "usage: ielas-golden match --mode elas|ielas (--preset robotics|middlebury [--disp-max N] | --config NAME|FILE.json)\n"
     "                          --left L --right R --out D.pfm|D.png [--interp paper|r7] [--sdelta PX] [--epsilon E]\n"
     "                          [--fill-c C] [--grid-keep smallest|votes] [--grid-corners none|nearest] [--time]\n"
-    "       ielas-golden dump  --mode ielas (--preset ... | --config ...) --left L --right R --out DIR [same options]\n";
+    "       ielas-golden dump  --mode ielas (--preset ... | --config ...) --left L --right R --out DIR [same options]\n"
+    "       ielas-golden config (--preset robotics|middlebury [--disp-max N] --width W --height H | --config NAME|FILE.json)\n"
+    "                          [--set KEY=VALUE]... [--print] [--try KEY=VALUE]...\n"
+    "                          (load and check a configuration; --print writes it; each --try prints 'ok' or the error\n"
+    "                          of that one change to it, one line each)\n";
 
 bool endsWith(const std::string& s, const std::string& tail) {
   return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
@@ -76,7 +80,7 @@ Options parseArgs(int argc, char** argv) {
   Options o;
   o.command = argv[1];
   if (o.command != "match" && o.command != "dump")
-    throw std::runtime_error("unknown command '" + o.command + "' (legal: match, dump)");
+    throw std::runtime_error("unknown command '" + o.command + "' (legal: match, dump, config)");
   for (int i = 2; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "--time") {
@@ -120,11 +124,68 @@ void writeDisparity(const std::string& out, const cv::Mat& disparity) {
   else writeKittiPng(out, disparity);
 }
 
+// `config`: loads a configuration (a --preset with a frame size, or --config), applies each --set KEY=VALUE to the
+// card parameters in order (re-deriving and checking every rule after each), and prints nothing (exit 0) or, with
+// --print, the result as JSON. An illegal configuration is the usual one-line error and exit 1. Each --try KEY=VALUE
+// is applied alone to a copy of the result and prints one line: "ok" or its error (exit 0 either way).
+int runConfig(int argc, char** argv) {
+  std::map<std::string, std::string> values;
+  std::vector<std::string> sets, tries;
+  bool print = false;
+  for (int i = 2; i < argc; ++i) {
+    std::string a = argv[i];
+    if (a == "--print") {
+      print = true;
+    } else if (a == "--preset" || a == "--disp-max" || a == "--config" || a == "--width" || a == "--height" || a == "--set" ||
+               a == "--try") {
+      if (i + 1 >= argc) throw std::runtime_error("option " + a + " needs a value");
+      if (a == "--set") sets.push_back(argv[++i]);
+      else if (a == "--try") tries.push_back(argv[++i]);
+      else if (!values.emplace(a, argv[++i]).second) throw std::runtime_error("option " + a + " given twice");
+    } else {
+      throw std::runtime_error("unknown option '" + a + "'");
+    }
+  }
+  if (values.count("--preset") == values.count("--config")) throw std::runtime_error("give exactly one of --preset and --config");
+  Config cfg;
+  if (values.count("--config")) {
+    if (values.count("--disp-max") || values.count("--width") || values.count("--height"))
+      throw std::runtime_error("--disp-max, --width and --height go with --preset only");
+    cfg = loadConfig(values["--config"]);
+  } else {
+    if (!values.count("--width") || !values.count("--height")) throw std::runtime_error("--preset needs --width and --height");
+    int dispMax = values.count("--disp-max") ? parseInt("--disp-max", values["--disp-max"], 1, 1023) : 255;
+    cfg = presetConfig(values["--preset"], dispMax, parseInt("--width", values["--width"], 1, 8192),
+                       parseInt("--height", values["--height"], 1, 8192));
+  }
+  auto apply = [](Config& c, const std::string& option, const std::string& kv) {
+    size_t eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0) throw std::runtime_error(option + " " + kv + " is not KEY=VALUE");
+    overrideConfig(c, kv.substr(0, eq), kv.substr(eq + 1));
+  };
+  for (const std::string& kv : sets) apply(cfg, "--set", kv);
+  if (print) std::cout << configToJson(cfg);
+  for (const std::string& kv : tries) {
+    Config c = cfg;
+    try {
+      apply(c, "--try", kv);
+      std::cout << "ok\n";
+    } catch (const std::exception& e) {
+      std::string msg = e.what();
+      for (char& ch : msg)
+        if (ch == '\n') ch = ' ';
+      std::cout << msg << "\n";
+    }
+  }
+  return 0;
+}
+
 int run(int argc, char** argv) {
   if (argc >= 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h" || std::string(argv[1]) == "help")) {
     std::cout << kUsage;
     return 0;
   }
+  if (argc >= 2 && std::string(argv[1]) == "config") return runConfig(argc, argv);
   Options o = parseArgs(argc, argv);
   const std::string& mode = o.get("--mode");
   if (mode != "elas" && mode != "ielas") throw std::runtime_error("unknown --mode '" + mode + "' (legal: elas, ielas)");
@@ -134,8 +195,7 @@ int run(int argc, char** argv) {
   const std::string& out = o.get("--out");
   if (o.command == "match" && !endsWith(out, ".pfm") && !endsWith(out, ".png"))
     throw std::runtime_error("--out must end in .pfm or .png");
-  if (o.has("--preset") && o.get("--preset") != "robotics" && o.get("--preset") != "middlebury")
-    throw std::runtime_error("unknown preset '" + o.get("--preset") + "' (legal: robotics, middlebury)");
+  if (o.has("--preset")) presetFile(o.get("--preset"));  // an unknown preset before any image is read
   for (const auto& option : kIntOptions)  // number errors before any image is read
     if (o.has(option.first)) intOption(o, option.first);
   // The configuration first (its errors do not depend on the images), except for --preset, which needs the size.

@@ -2,6 +2,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
+#include <string>
 #include <sys/stat.h>
 #include <vector>
 
@@ -160,6 +162,40 @@ void testPresetMatchesJson() {
   CHECK(presetConfig("robotics", 127, 640, 480).priorTable == tsukuba.priorTable);
   CHECK_EQ(presetConfig("robotics", 31, 128, 64).fillC, 31);
   CHECK_THROWS(presetConfig("indoor", 255, 640, 480), "unknown preset");
+  // The ranges are the preset file's (ElasParams's): dispMax from 15, below the width; fillC and sDelta follow.
+  CHECK_THROWS(presetConfig("robotics", 14, 640, 480), "dispMax = 14 is out of range (legal: 15..1023)");
+  CHECK_THROWS(presetConfig("robotics", 63, 60, 40), "dispMax = 63 is out of range (legal: 15..59)");
+  CHECK_EQ(presetConfig("robotics", 31, 48, 16).sDelta, 48);
+  CHECK_EQ(presetConfig("robotics", 31, 48, 16).fillC, 31);
+}
+
+void testLegalFromJson() {
+  // Every value is checked against the JSON's "legal" object; a file without it is refused.
+  const std::string dir = tmpDir();
+  std::ifstream in(std::string(IELAS_TEST_CONFIG_DIR) + "/small.json");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto write = [&](const std::string& name, const std::string& body) {
+    std::ofstream(dir + "/" + name) << body;
+    return dir + "/" + name;
+  };
+  auto replaced = [&](const std::string& from, const std::string& to) {
+    std::string t = text;
+    size_t at = t.find(from);
+    CHECK(at != std::string::npos);
+    if (at != std::string::npos) t.replace(at, from.size(), to);
+    return t;
+  };
+  size_t legal = text.find(",\n  \"legal\"");
+  CHECK(legal != std::string::npos);
+  CHECK_THROWS(loadConfig(write("nolegal.json", text.substr(0, legal) + "\n}\n")), "missing key 'legal'");
+  CHECK_THROWS(loadConfig(write("lr.json", replaced("\"lrThreshold\": 2,", "\"lrThreshold\": 32,"))),
+               "lrThreshold = 32 is out of range (legal: 0..31)");
+  CHECK_EQ(loadConfig(write("lr31.json", replaced("\"lrThreshold\": 2,", "\"lrThreshold\": 31,"))).lrThreshold, 31);
+  CHECK_THROWS(loadConfig(write("norule.json", replaced("\"lrThreshold\": [[\"range\", 0, \"dispMax\"]],", ""))),
+               "no legal entry for 'lrThreshold'");
+  Config small = loadConfig("small");
+  CHECK_THROWS(overrideConfig(small, "speckleWindowRows", "65"), "speckleWindowRows = 65 is out of range (legal: 1..64)");
+  CHECK_THROWS(overrideConfig(small, "cyclesPerPixel", "3"), "cyclesPerPixel = 3 is not supported (legal: 1, 2, 4, 8)");
 }
 
 }  // namespace
@@ -169,5 +205,6 @@ int main() {
   testNpyRoundTrip();
   testConfigFile();
   testPresetMatchesJson();
+  testLegalFromJson();
   return testExitCode("test_npy_config");
 }

@@ -6,6 +6,19 @@
 
 namespace ielas {
 
+// One legality rule of a card parameter, as the configuration JSON's "legal" object states it (ElasParams.legal):
+// kind "range" [lo, hi], "aboveUpTo" (lo, hi], "oneOf" [v, ...] or "zeroOrPowerOfTwo" [lo, hi]. A bound is a number or
+// a string: "NAME", "NAME+K", "NAME-K" (an integer card parameter plus K) or "(2*NAME+1)^2".
+struct LegalArg {
+  bool isString = false;
+  std::string text;
+  double number = 0.0;
+};
+struct LegalRule {
+  std::string param, kind;
+  std::vector<LegalArg> args;
+};
+
 struct Config {
   std::string name;
   int maxWidth = 0, maxHeight = 0;
@@ -23,8 +36,10 @@ struct Config {
   int ipolColumnWindow = 32;
   std::string fillRule;  // "r7" | "paper"
   int fillEpsilon = 15, sDelta = 50, epsilon = 15, fillC = 60;
-  int supportLanes = 0, denseLanes = 0;
-  // derived by ElasParams (recomputed by presetConfig)
+  // Implementation knobs of the hardware: read and checked, not used by the golden model (its results do not
+  // depend on the lane counts or the input rate).
+  int cyclesPerPixel = 1, supportLanes = 0, denseLanes = 0;
+  // derived by ElasParams (recomputed by presetConfig and overrideConfig)
   int supportThresholdPercent = 85;
   double gamma = 3.0, sradius = 2.0;
   int planeRadius = 2;
@@ -35,6 +50,8 @@ struct Config {
   int descriptorBytes = 16, descriptorMargin = 3, supportMargin = 5;
   int latticeColsMax = 0, latticeRowsMax = 0, gridColsMax = 0, gridRowsMax = 0;
   std::vector<int> priorTable;  // P[delta], delta = 0..dispMax
+  std::vector<LegalRule> legal;  // the JSON's "legal" object, in its order
+  std::vector<std::string> presetFollows;  // preset files: parameters moved into their legal range after the size
   // Golden-model-only knob (optional JSON key): which grid candidates survive when a cell has more than
   // storedDisparities. "smallest" (the default, docs/ALGORITHM.md) or "votes".
   std::string gridKeep = "smallest";
@@ -60,19 +77,33 @@ struct Config {
 // Throws std::runtime_error with a one-line message on an unknown name, a malformed file or an illegal value.
 Config loadConfig(const std::string& nameOrFile);
 
-// The --preset configuration: the named configurations' hardware parameters (windowSize 5, storedDisparities 20,
-// candidateStep 5, gridSize 20, fill r7), libelas's values for `parameterSet` ("robotics" | "middlebury"),
-// maximum size = the given frame size, and a prior table computed here.
+// The --preset configuration: the preset file <configs>/presets/<parameterSet>.json (written by ElasParams: the
+// named configurations' hardware parameters and the parameter set's values) with maximum size = the given frame size
+// and dispMax, the parameters it lists in "presetFollows" moved into their legal range, the derived values and the
+// prior table recomputed, and every rule of its "legal" object checked.
 Config presetConfig(const std::string& parameterSet, int dispMax, int width, int height);
+
+// The path of the preset file of `parameterSet`; throws "unknown preset" naming the legal ones.
+std::string presetFile(const std::string& parameterSet);
+
+// Sets the card parameter `key` (a field of ElasParams but the name) from `value`, then recomputes the derived values
+// and the prior table and checks every rule. Throws a one-line message on an unknown key or an illegal value
+// (cfg is then unchanged).
+void overrideConfig(Config& cfg, const std::string& key, const std::string& value);
+
+// The configuration's parameters and derived values as one JSON object (the keys of the configuration JSON but
+// "legal"), for `ielas-golden config --print`.
+std::string configToJson(const Config& cfg);
 
 // P[delta] = trunc((ln gamma - ln(gamma + exp(-delta^2 / (2 sigma^2)))) / beta), delta = 0..dispMax
 // (docs/ALGORITHM.md, Configurations and frames).
 std::vector<int> computePriorTable(int dispMax, double gamma, double sigma, double beta);
 
-// Throws std::runtime_error naming the first illegal parameter (the same ranges as ElasParams).
+// Throws std::runtime_error naming the first illegal parameter: the rules of cfg.legal (the JSON's, so the same as
+// ElasParams's), then the structural checks (prior table length, the golden-only knobs).
 void validateConfig(const Config& cfg);
 
-// Recomputes the values derived from the card parameters (lattice/grid maxima, margins); keeps priorTable.
+// Recomputes the sizes derived from the card parameters (lattice/grid maxima, margins); keeps priorTable.
 void deriveConfig(Config& cfg);
 
 }  // namespace ielas

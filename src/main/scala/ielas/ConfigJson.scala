@@ -59,24 +59,57 @@ object ConfigJson {
     "latticeRowsMax" -> p.latticeRowsMax,
     "gridColsMax" -> p.gridColsMax,
     "gridRowsMax" -> p.gridRowsMax,
-    "priorTable" -> p.priorTable
+    "priorTable" -> p.priorTable,
+    // the legal values of every card parameter (ElasParams.legal), which the golden model checks
+    "legal" -> Raw(legalJson)
   )
+
+  /** The text of a JSON value written as it is. */
+  final case class Raw(text: String)
+
+  /** The `"legal"` object: each card parameter's rules in [[ElasParams.legal]]'s order. */
+  lazy val legalJson: String = {
+    val params = ElasParams.legal.map(_.param).distinct
+    params.map { k =>
+      s"""    "$k": ${ElasParams.legal.filter(_.param == k).map(_.json).mkString("[", ", ", "]")}"""
+    }.mkString("{\n", ",\n", "\n  }")
+  }
+
+  /** A preset file (golden/configs/presets/<set>.json): the configuration, with the SAD lanes automatic (0: they
+    * depend on dispMax, which the preset takes from the command line), and the parameters that follow the size.
+    */
+  def presetJson(set: ParameterSet): String = {
+    val base = ElasParams.presetBase(set)
+    val own = Map[String, Any]("supportLanes" -> base.supportLanes, "denseLanes" -> base.denseLanes)
+    renderObject(fields(base).map { case (k, v) => k -> own.getOrElse(k, v) } :+ ("presetFollows" -> Raw(ElasParams.presetFollows.map("\"" + _ + "\"").mkString("[", ", ", "]"))))
+  }
 
   private def render(v: Any): String = v match {
     case s: String  => "\"" + s + "\""
     case d: Double  => if (d == math.rint(d)) f"$d%.1f" else d.toString
     case i: Int     => i.toString
     case xs: Seq[_] => xs.map(render).mkString("[", ", ", "]")
+    case Raw(text)  => text
     case other      => throw new IllegalArgumentException(s"ConfigJson: cannot render $other")
   }
 
-  def toJson(p: ElasParams): String =
-    fields(p).map { case (k, v) => s"""  "$k": ${render(v)}""" }.mkString("{\n", ",\n", "\n}\n")
+  private def renderObject(fs: Seq[(String, Any)]): String =
+    fs.map { case (k, v) => s"""  "$k": ${render(v)}""" }.mkString("{\n", ",\n", "\n}\n")
+
+  def toJson(p: ElasParams): String = renderObject(fields(p))
 
   def write(p: ElasParams, dir: Path): Path = {
     Files.createDirectories(dir)
     val file = dir.resolve(s"${p.name}.json")
     Files.write(file, toJson(p).getBytes(StandardCharsets.UTF_8))
+    file
+  }
+
+  /** DIR/presets/<set>.json for every parameter set. */
+  def writePresets(dir: Path): Seq[Path] = ParameterSet.all.map { set =>
+    val file = dir.resolve("presets").resolve(s"${set.name}.json")
+    Files.createDirectories(file.getParent)
+    Files.write(file, presetJson(set).getBytes(StandardCharsets.UTF_8))
     file
   }
 
@@ -163,7 +196,9 @@ object ConfigJson {
   }
 }
 
-/** A minimal parser for one flat JSON object of numbers, strings and number arrays. */
+/** A minimal parser for one JSON object of numbers, strings, arrays and objects (no escapes, no literals):
+  * numbers are Doubles, arrays Seqs, objects Maps.
+  */
 object FlatJson {
   def parse(text: String, origin: String): Map[String, Any] = {
     var i = 0
@@ -188,28 +223,33 @@ object FlatJson {
         case '"' => string()
         case '[' =>
           i += 1; ws()
-          val xs = scala.collection.mutable.ArrayBuffer[Double]()
+          val xs = scala.collection.mutable.ArrayBuffer[Any]()
           if (i < text.length && text(i) == ']') { i += 1 }
           else {
             var more = true
-            while (more) { xs += number(); ws(); if (i < text.length && text(i) == ',') i += 1 else { expect(']'); more = false } }
+            while (more) { xs += value(); ws(); if (i < text.length && text(i) == ',') i += 1 else { expect(']'); more = false } }
           }
           xs.toSeq
+        case '{' => obj()
         case _ => number()
       }
     }
-    expect('{')
-    val out = scala.collection.mutable.LinkedHashMap[String, Any]()
-    ws()
-    if (i < text.length && text(i) == '}') i += 1
-    else {
-      var more = true
-      while (more) {
-        val k = string(); expect(':'); out(k) = value(); ws()
-        if (i < text.length && text(i) == ',') i += 1 else { expect('}'); more = false }
+    def obj(): Map[String, Any] = {
+      expect('{')
+      val out = scala.collection.mutable.LinkedHashMap[String, Any]()
+      ws()
+      if (i < text.length && text(i) == '}') i += 1
+      else {
+        var more = true
+        while (more) {
+          val k = string(); expect(':'); out(k) = value(); ws()
+          if (i < text.length && text(i) == ',') i += 1 else { expect('}'); more = false }
+        }
       }
+      out.toMap
     }
+    val out = obj()
     ws(); if (i != text.length) fail("trailing text")
-    out.toMap
+    out
   }
 }

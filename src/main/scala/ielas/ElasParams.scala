@@ -1,6 +1,7 @@
 package ielas
 
 import chisel3.util.log2Ceil
+import scala.language.implicitConversions
 
 /** The ELAS algorithm parameter set (libelas's two presets; docs/ALGORITHM.md, "Configurations and frames").
   * It fixes the support, prior and post-processing parameters; the hardware shape comes from [[ElasParams]].
@@ -47,6 +48,86 @@ object FillRule {
       throw new IllegalArgumentException(s"fillRule: unknown '$name' (legal: ${all.map(_.name).mkString(", ")})"))
 }
 
+/** A bound of a legal range: a constant, or a card parameter's value (plus a constant), or the cell count of a
+  * square window. [[ConfigJson]] writes it as an integer or as a string the golden model evaluates: `"dispMax+1"`,
+  * `"maxWidth-1"`, `"candidateStep"`, `"(2*inconWindowSize+1)^2"`.
+  */
+sealed abstract class Bound {
+  def eval(int: String => Int): Int
+  def json: String
+}
+object Bound {
+  final case class Const(k: Int) extends Bound {
+    def eval(int: String => Int): Int = k
+    def json: String = k.toString
+  }
+  final case class Param(field: String, plus: Int = 0) extends Bound {
+    def eval(int: String => Int): Int = int(field) + plus
+    def json: String = "\"" + field + (if (plus > 0) s"+$plus" else if (plus < 0) plus.toString else "") + "\""
+  }
+  final case class WindowArea(field: String) extends Bound {
+    def eval(int: String => Int): Int = { val n = 2 * int(field) + 1; n * n }
+    def json: String = "\"(2*" + field + "+1)^2\""
+  }
+  implicit def const(k: Int): Bound = Const(k)
+}
+
+/** One legality rule of a card parameter. [[ElasParams]] checks its fields against [[ElasParams.legal]] and
+  * [[ConfigJson]] writes the same rules into the configuration JSON's `"legal"` object, where the golden model reads
+  * them: `["range", lo, hi]`, `["aboveUpTo", lo, hi]`, `["oneOf", v, ...]`, `["zeroOrPowerOfTwo", lo, hi]`.
+  */
+sealed abstract class Legal {
+  def param: String
+  /** None when `value` is legal, else the one-line message; `int` gives the other integer parameters. */
+  def check(value: Any, int: String => Int): Option[String]
+  def json: String
+}
+object Legal {
+  type Message = (Any, Int, Int, String => Int) => String // value, lo, hi, parameters
+
+  final case class Range(param: String, lo: Bound, hi: Bound, message: Option[Message] = None) extends Legal {
+    def check(value: Any, int: String => Int): Option[String] = {
+      val (l, h, v) = (lo.eval(int), hi.eval(int), value.asInstanceOf[Int])
+      if (v >= l && v <= h) None
+      else Some(message.fold(s"$param = $v is out of range (legal: $l..$h)")(_(v, l, h, int)))
+    }
+    def json: String = s"""["range", ${lo.json}, ${hi.json}]"""
+  }
+  /** lo < value <= hi, for the real-valued parameters. */
+  final case class AboveUpTo(param: String, lo: Double, hi: Double) extends Legal {
+    private def fmt(x: Double) = if (x == math.rint(x)) x.toLong.toString else x.toString
+    def check(value: Any, int: String => Int): Option[String] = {
+      val v = value.asInstanceOf[Double]
+      if (v > lo && v <= hi) None else Some(s"$param = $v is out of range (legal: (${fmt(lo)}, ${fmt(hi)}])")
+    }
+    def json: String = s"""["aboveUpTo", ${fmt(lo)}, ${fmt(hi)}]"""
+  }
+  final case class OneOf(param: String, values: Seq[Any]) extends Legal {
+    def check(value: Any, int: String => Int): Option[String] =
+      if (values.contains(value)) None
+      else value match {
+        case _: String => Some(s"$param: unknown '$value' (legal: ${values.mkString(", ")})")
+        case _         => Some(s"$param = $value is not supported (legal: ${values.mkString(", ")})")
+      }
+    def json: String = values.map {
+      case s: String => "\"" + s + "\""
+      case other     => other.toString
+    }.mkString("[\"oneOf\", ", ", ", "]")
+  }
+  /** 0 or a power of two in lo..hi. */
+  final case class ZeroOrPowerOfTwo(param: String, lo: Bound, hi: Bound, message: Option[Message] = None) extends Legal {
+    def check(value: Any, int: String => Int): Option[String] = {
+      val (l, h, v) = (lo.eval(int), hi.eval(int), value.asInstanceOf[Int])
+      if (v == 0 || (v >= l && v <= h && Integer.bitCount(v) == 1)) None
+      else {
+        val legal = (0 +: Iterator.iterate(1)(_ * 2).takeWhile(_ <= h).filter(_ >= l).toSeq).mkString(", ")
+        Some(message.fold(s"$param = $v is not supported (legal: $legal)")(_(v, l, h, int)))
+      }
+    }
+    def json: String = s"""["zeroOrPowerOfTwo", ${lo.json}, ${hi.json}]"""
+  }
+}
+
 /** The single source of truth for the generator and the golden model.
   *
   * Card parameters: image size maxima, disparity range, window size, stored disparities. Everything else has the
@@ -89,41 +170,21 @@ case class ElasParams(
     supportLanes: Int = 0, //   0 = the lowest count that keeps up with one pixel every cyclesPerPixel clocks
     denseLanes: Int = 0 //      0 = likewise (candidates per view / cyclesPerPixel, rounded up)
 ) {
-  private def rangeCheck(value: Int, lo: Int, hi: Int, what: String): Unit =
-    require(value >= lo && value <= hi, s"$what = $value is out of range (legal: $lo..$hi)")
-
   require(name.nonEmpty && name.forall(c => c.isLetterOrDigit || c == '-' || c == '_'),
     s"name = '$name' must be non-empty and use only letters, digits, '-' and '_'")
-  rangeCheck(maxWidth, 32, 8192, "maxWidth")
-  rangeCheck(maxHeight, 16, 8192, "maxHeight")
-  rangeCheck(dispMax, 15, 1023, "dispMax")
-  require(dispMax < maxWidth, s"dispMax = $dispMax must be below maxWidth = $maxWidth (legal: 15..${maxWidth - 1})")
-  require(Seq(3, 5, 7).contains(windowSize), s"windowSize = $windowSize is not supported (legal: 3, 5, 7)")
-  rangeCheck(storedDisparities, 1, dispMax + 1, "storedDisparities")
-  rangeCheck(candidateStep, 2, 16, "candidateStep")
-  rangeCheck(gridSize, candidateStep, 256, "gridSize")
-  rangeCheck(supportTexture, 0, 2048, "supportTexture")
-  rangeCheck(supportMinRange, 1, dispMax, "supportMinRange")
-  rangeCheck(inconWindowSize, 1, 16, "inconWindowSize")
-  rangeCheck(inconThreshold, 0, dispMax, "inconThreshold")
-  rangeCheck(inconMinSupport, 1, (2 * inconWindowSize + 1) * (2 * inconWindowSize + 1), "inconMinSupport")
-  rangeCheck(lrThreshold, 0, dispMax, "lrThreshold")
-  require(beta > 0.0 && beta <= 1.0, s"beta = $beta is out of range (legal: (0, 1])")
-  require(sigma > 0.0 && sigma <= 16.0, s"sigma = $sigma is out of range (legal: (0, 16])")
-  rangeCheck(speckleSimThreshold, 0, dispMax, "speckleSimThreshold")
-  rangeCheck(speckleSize, 0, 100000, "speckleSize")
-  rangeCheck(speckleWindowRows, 1, 64, "speckleWindowRows")
-  rangeCheck(ipolColumnWindow, 1, 256, "ipolColumnWindow")
-  rangeCheck(fillEpsilon, 0, dispMax, "fillEpsilon")
-  rangeCheck(sDelta, 0, maxWidth, "sDelta")
-  rangeCheck(epsilon, 0, dispMax, "epsilon")
-  rangeCheck(fillC, 0, dispMax, "fillC")
-  require(Seq(1, 2, 4, 8).contains(cyclesPerPixel), s"cyclesPerPixel = $cyclesPerPixel is not supported (legal: 1, 2, 4, 8)")
-  rangeCheck(supportLanes, 0, dispMax + 1, "supportLanes")
-  require(supportLanes == 0 || (Integer.bitCount(supportLanes) == 1 && supportLanes > 2 * (windowSize / 2)),
-    s"supportLanes = $supportLanes must be 0 (automatic) or a power of two above windowSize - 1 = ${windowSize - 1}" +
-      s" (legal: 0, ${(1 to 10).map(1 << _).filter(l => l > windowSize - 1 && l <= dispMax + 1).mkString(", ")})")
-  rangeCheck(denseLanes, 0, dispMax + 1, "denseLanes")
+  /** A card parameter's value by its field name (an Int, a Double or, for the sets and the fill rule, a name). */
+  def param(field: String): Any =
+    productElementNames.zip(productIterator).collectFirst { case (`field`, v) => v } match {
+      case Some(s: ParameterSet) => s.name
+      case Some(f: FillRule)     => f.name
+      case Some(v)               => v
+      case None                  => throw new IllegalArgumentException(s"ElasParams: no parameter '$field'")
+    }
+  private def intParam(field: String): Int = param(field) match {
+    case i: Int => i
+    case other  => throw new IllegalArgumentException(s"ElasParams: parameter '$field' = $other is not an integer")
+  }
+  ElasParams.legal.foreach(rule => rule.check(param(rule.param), intParam).foreach(msg => require(false, msg)))
 
   // ---- derived values ----
   /** Half window: descriptor and support-window reach in pixels (2 for ELAS's 5x5). */
@@ -207,10 +268,74 @@ object ElasParams {
     ((math.log(gamma) - math.log(gamma + n)) / beta).toInt // toInt truncates toward zero, as libelas
   }
 
+  /** The legal values of every card parameter but the name, checked in this order (the only place they are typed:
+    * the configuration JSON carries them to the golden model). Rules that are not ranges of one parameter (the
+    * name's characters, denseLanes against the dense candidates per cyclesPerPixel) are checked by ElasParams alone.
+    */
+  val legal: Seq[Legal] = {
+    import Bound._
+    import Legal._
+    val dispMax = Param("dispMax")
+    Seq(
+      Range("maxWidth", 32, 8192),
+      Range("maxHeight", 16, 8192),
+      Range("dispMax", 15, 1023),
+      Range("dispMax", 15, Param("maxWidth", -1),
+        Some((v, lo, hi, int) => s"dispMax = $v must be below maxWidth = ${int("maxWidth")} (legal: $lo..$hi)")),
+      OneOf("windowSize", Seq(3, 5, 7)),
+      Range("storedDisparities", 1, Param("dispMax", 1)),
+      Range("candidateStep", 2, 16),
+      Range("gridSize", Param("candidateStep"), 256),
+      OneOf("parameterSet", ParameterSet.all.map(_.name)),
+      Range("supportTexture", 0, 2048),
+      Range("supportMinRange", 1, dispMax),
+      Range("inconWindowSize", 1, 16),
+      Range("inconThreshold", 0, dispMax),
+      Range("inconMinSupport", 1, WindowArea("inconWindowSize")),
+      Range("lrThreshold", 0, dispMax),
+      AboveUpTo("beta", 0, 1),
+      AboveUpTo("sigma", 0, 16),
+      Range("speckleSimThreshold", 0, dispMax),
+      Range("speckleSize", 0, 100000),
+      Range("speckleWindowRows", 1, 64),
+      Range("ipolColumnWindow", 1, 256),
+      OneOf("fillRule", FillRule.all.map(_.name)),
+      Range("fillEpsilon", 0, dispMax),
+      Range("sDelta", 0, Param("maxWidth")),
+      Range("epsilon", 0, dispMax),
+      Range("fillC", 0, dispMax),
+      OneOf("cyclesPerPixel", Seq(1, 2, 4, 8)),
+      Range("supportLanes", 0, Param("dispMax", 1)),
+      ZeroOrPowerOfTwo("supportLanes", Param("windowSize"), Param("dispMax", 1),
+        Some((v, lo, hi, _) => s"supportLanes = $v must be 0 (automatic) or a power of two above windowSize - 1 = ${lo - 1}" +
+          s" (legal: 0, ${Iterator.iterate(1)(_ * 2).takeWhile(_ <= hi).filter(_ >= lo).mkString(", ")})")),
+      Range("denseLanes", 0, Param("dispMax", 1)))
+  }
+
+  /** `value` of `field` moved into its legal ranges, evaluated with the integer parameters `int`. */
+  def clampToLegal(field: String, value: Int, int: String => Int): Int =
+    legal.collect { case r: Legal.Range if r.param == field => r }
+      .foldLeft(value)((v, r) => math.min(math.max(v, r.lo.eval(int)), r.hi.eval(int)))
+
+  /** The card parameters a preset moves into their legal range once the frame size and dispMax are set (fillC =
+    * min(60, dispMax)); the golden model's `--preset` does the same with the list in the preset file.
+    */
+  val presetFollows: Seq[String] = Seq("fillC", "sDelta")
+
+  /** The preset files (golden/configs/presets/<set>.json): the defaults with the parameter set. The golden model's
+    * `--preset` takes one and sets the frame size and dispMax.
+    */
+  def presetBase(set: ParameterSet): ElasParams = ElasParams(name = s"preset-${set.name}", parameterSet = set)
+
   private def preset(name: String, w: Int, h: Int, dmax: Int, set: ParameterSet, windowSize: Int = 5,
-      cyclesPerPixel: Int = 1) =
-    ElasParams(name = name, maxWidth = w, maxHeight = h, dispMax = dmax, parameterSet = set, windowSize = windowSize,
-      fillC = math.min(60, dmax), cyclesPerPixel = cyclesPerPixel)
+      cyclesPerPixel: Int = 1) = {
+    val base = presetBase(set)
+    val own = Map("maxWidth" -> w, "maxHeight" -> h, "dispMax" -> dmax)
+    val int = (f: String) => own.getOrElse(f, base.param(f).asInstanceOf[Int])
+    val follow = presetFollows.map(f => f -> clampToLegal(f, int(f), int)).toMap
+    base.copy(name = name, maxWidth = w, maxHeight = h, dispMax = dmax, windowSize = windowSize,
+      fillC = follow("fillC"), sDelta = follow("sDelta"), cyclesPerPixel = cyclesPerPixel)
+  }
 
   /** The named configurations of docs/interfaces.md §1, then small ones for fast tests. */
   val named: Seq[ElasParams] = Seq(

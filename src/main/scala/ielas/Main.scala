@@ -7,7 +7,8 @@ import java.nio.file.Paths
   *                                 with the IElasAxi wrapper (as `make verilog`)
   *   --width W --height H ...      emit a custom configuration from the card parameters (`--help` lists them;
   *                                 `--axi` adds the IElasAxi wrapper)
-  *   configs [DIR]                 write every named configuration to DIR (default golden/configs)
+  *   configs [DIR]                 write every named configuration to DIR (default golden/configs) and the
+  *                                 golden model's --preset files to DIR/presets
   *   verilog CONFIG [DIR]          emit the accelerator top and the IElasAxi wrapper (with its register map and
   *                                 FuseSoC core) as SystemVerilog into DIR (default build/verilog/CONFIG)
   *   config DIR SPEC...            write one configuration per SPEC = NAME:BASE[:KEY=VALUE,...] to DIR/NAME.json
@@ -37,6 +38,7 @@ object Main {
           case "configs" :: rest =>
             val dir = Paths.get(rest.headOption.getOrElse("golden/configs"))
             ElasParams.named.foreach(p => println(s"wrote ${ConfigJson.write(p, dir)}"))
+            ConfigJson.writePresets(dir).foreach(f => println(s"wrote $f"))
             0
           case "verilog" :: config :: rest =>
             val p = ConfigJson.load(config)

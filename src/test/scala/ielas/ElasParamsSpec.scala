@@ -17,6 +17,12 @@ class ElasParamsSpec extends AnyFlatSpec with Matchers {
         val onDisk = new String(Files.readAllBytes(configDir.resolve(s"${p.name}.json")), StandardCharsets.UTF_8)
         withClue(s"${p.name}.json: ") { onDisk shouldBe ConfigJson.toJson(p) }
       }
+      val presets = Files.list(configDir.resolve("presets")).toArray.map(_.toString).filter(_.endsWith(".json")).toSeq
+      presets.map(Paths.get(_).getFileName.toString).sorted shouldBe ParameterSet.all.map(s => s"${s.name}.json").sorted
+      for (set <- ParameterSet.all) {
+        val onDisk = new String(Files.readAllBytes(configDir.resolve("presets").resolve(s"${set.name}.json")), StandardCharsets.UTF_8)
+        withClue(s"presets/${set.name}.json: ") { onDisk shouldBe ConfigJson.presetJson(set) }
+      }
     }
   }
 

@@ -20,6 +20,9 @@ object GoldenModel {
     bin
   }
 
+  /** The golden model's executable, built when missing. */
+  def executable: Path = ready
+
   /** The project's own synthetic scene (ielas-synth, next to ielas-golden): left.pgm and right.pgm in `dir`. */
   def synthScene(dir: Path): (Path, Path) = {
     val synth = ready.resolveSibling("ielas-synth")
