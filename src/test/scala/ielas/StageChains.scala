@@ -81,14 +81,8 @@ class SupportFilterChain(p: ElasParams) extends LatticeChain(p) {
 
 /** Stage-test chain: pixel input -> [[Descriptor]] -> [[SupportMatcher]] -> [[SupportFilter]] -> [[LatticeFill]]. */
 class LatticeFillChain(p: ElasParams) extends LatticeChain(p) {
-  val support = Module(new SupportChain(p))
-  val filter = Module(new SupportFilter(p))
   val fill = Module(LatticeFill(p))
-  support.io.in <> io.in
-  support.io.frameWidth := io.frameWidth
-  support.io.frameHeight := io.frameHeight
-  filter.io.in <> support.io.out
-  fill.io.in <> filter.io.out
+  fill.io.in <> StageChains.filtered(p, io.in, io.frameWidth, io.frameHeight)
   fill.io.frameWidth := io.frameWidth
   fill.io.frameHeight := io.frameHeight
   io.out <> fill.io.out
@@ -107,14 +101,8 @@ class GridVectorChainIO(p: ElasParams) extends Bundle {
   */
 class GridVectorChain(p: ElasParams) extends Module {
   val io = IO(new GridVectorChainIO(p))
-  val support = Module(new SupportChain(p))
-  val filter = Module(new SupportFilter(p))
   val grid = Module(new GridVector(p))
-  support.io.in <> io.in
-  support.io.frameWidth := io.frameWidth
-  support.io.frameHeight := io.frameHeight
-  filter.io.in <> support.io.out
-  grid.io.in <> filter.io.out
+  grid.io.in <> StageChains.filtered(p, io.in, io.frameWidth, io.frameHeight)
   grid.io.frameWidth := io.frameWidth
   grid.io.frameHeight := io.frameHeight
   io.out <> grid.io.out
@@ -140,12 +128,8 @@ class EarlyPathChain(p: ElasParams) extends Module {
     val frameHeight = Input(UInt(p.rowBits.W))
     val out = Decoupled(new EarlyBeat(p))
   })
-  val filtered = Module(new SupportFilterChain(p))
-  filtered.io.in <> io.in
-  filtered.io.frameWidth := io.frameWidth
-  filtered.io.frameHeight := io.frameHeight
   val fork = Module(new StreamFork(new Framed(SInt(p.signedDispBits.W)), 2))
-  fork.io.in <> filtered.io.out
+  fork.io.in <> StageChains.filtered(p, io.in, io.frameWidth, io.frameHeight)
   val fill = Module(LatticeFill(p))
   val grid = Module(new GridVector(p))
   fill.io.in <> fork.io.out(0)
@@ -167,4 +151,16 @@ class EarlyPathChain(p: ElasParams) extends Module {
   merge.io.in(1).bits.grid := grid.io.out.bits
   grid.io.out.ready := merge.io.in(1).ready
   io.out <> merge.io.out
+}
+
+object StageChains {
+  /** A [[SupportFilterChain]] inside the calling module, fed from its pixel input and frame size: the filtered
+    * support lattice that the interp and grid chains start from. */
+  def filtered(p: ElasParams, in: DecoupledIO[PixelPair], width: UInt, height: UInt): DecoupledIO[Framed[SInt]] = {
+    val chain = Module(new SupportFilterChain(p))
+    chain.io.in <> in
+    chain.io.frameWidth := width
+    chain.io.frameHeight := height
+    chain.io.out
+  }
 }
