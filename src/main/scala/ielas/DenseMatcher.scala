@@ -248,9 +248,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
 
   // ---------------------------------------------------------------- pipeline control
-  val outValid = RegInit(false.B)
-  val outBits = Reg(new Framed(new DisparityPair(p)))
-  val outFree = !outValid || io.out.ready
+  val output = new OutputRegister(io.out)
 
   val aValid = RegInit(false.B)
   val aFirst = RegInit(false.B) // a.u = 0, registered with a (it selects the raster window: keep it off the compare)
@@ -260,7 +258,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   val (gridHit, gridSel) = bankOf(gridFull, gridTag, a.fp, a.gy)
   val (planeHit, planeSel) = bankOf(planeFull, planeTag, a.fp, a.cr)
   val aReady = a.u =/= 0.U || (shadowFull && gridHit)
-  val adv = outFree && (!aValid || aReady) // the candidate groups (stages C..E) move
+  val adv = output.free && (!aValid || aReady) // the candidate groups (stages C..E) move
   val cValid = RegInit(false.B)
   val group = RegInit(0.U(math.max(1, log2Ceil(groups)).W)) // candidate group stage C issues this cycle
   val cLast = group === (groups - 1).U
@@ -815,17 +813,14 @@ class DenseMatcher(p: ElasParams) extends Module {
     Mux(treeTail.live(view) && best.valid, best.d.zext, (-1).S(dispW.W))
   }
 
-  when(io.out.fire) { outValid := false.B }
   when(adv && treeValid && treeTail.last) {
-    outValid := true.B
-    outBits.data.left := result(0)
-    outBits.data.right := result(1)
-    outBits.sof := treeTail.sof
-    outBits.eol := treeTail.eol
-    outBits.eof := treeTail.eof
+    output.valid := true.B
+    output.bits.data.left := result(0)
+    output.bits.data.right := result(1)
+    output.bits.sof := treeTail.sof
+    output.bits.eol := treeTail.eol
+    output.bits.eof := treeTail.eof
   }
-  io.out.valid := outValid
-  io.out.bits := outBits
 }
 
 object DenseMatcher {

@@ -67,8 +67,7 @@ class FrameGuard(p: ElasParams) extends Module {
   val heldWidth = Reg(UInt(p.colBits.W))
   val heldHeight = Reg(UInt(p.rowBits.W))
 
-  val outValid = RegInit(false.B)
-  val outBits = Reg(new PixelPair)
+  val output = new OutputRegister(io.out)
   // The aborted beats wait in two registers (a Queue would be a LUT-RAM): head goes out, tail waits behind it.
   val headValid = RegInit(false.B)
   val headBit = Reg(Bool())
@@ -81,7 +80,7 @@ class FrameGuard(p: ElasParams) extends Module {
   io.aborted.bits := headBit
 
   // ---- one step per cycle: emit a padding pixel, or take one beat (input or held SOF) ----
-  val canStep = (!outValid || io.out.ready) && abortedEnqReady
+  val canStep = output.free && abortedEnqReady
   val padding = active && (padLine || padFrame)
   io.in.ready := canStep && !padding && !heldValid
   val srcValid = heldValid || io.in.valid
@@ -98,11 +97,11 @@ class FrameGuard(p: ElasParams) extends Module {
   /** Puts out pixel (px, py) of a frame of width w, height h; returns whether it is the line's last. */
   def emit(left: UInt, right: UInt, px: UInt, py: UInt, w: UInt, h: UInt): Bool = {
     val lastCol = px === w - 1.U
-    outValid := true.B
-    outBits.left := left
-    outBits.right := right
-    outBits.sof := px === 0.U && py === 0.U
-    outBits.eol := lastCol
+    output.valid := true.B
+    output.bits.left := left
+    output.bits.right := right
+    output.bits.sof := px === 0.U && py === 0.U
+    output.bits.eol := lastCol
     x := Mux(lastCol, 0.U, px + 1.U)
     y := Mux(lastCol, py + 1.U, py)
     when(lastCol && py === h - 1.U) {
@@ -115,7 +114,6 @@ class FrameGuard(p: ElasParams) extends Module {
     lastCol
   }
 
-  when(io.out.fire) { outValid := false.B }
   when(canStep) {
     when(padding) {
       val lastCol = emit(0.U, 0.U, x, y, width, height)
@@ -181,8 +179,6 @@ class FrameGuard(p: ElasParams) extends Module {
   when(io.clearError) { error := false.B }
   when(setError) { error := true.B }
 
-  io.out.valid := outValid
-  io.out.bits := outBits
   io.error := error
   io.outWidth := width
   io.outHeight := height

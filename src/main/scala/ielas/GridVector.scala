@@ -232,12 +232,7 @@ class GridVector(p: ElasParams) extends Module {
   val resL = Reg(Vec(sd, valueType))
   val resR = Reg(Vec(sd, valueType))
 
-  val outValid = RegInit(false.B)
-  val outBits = Reg(new Framed(new GridCellPair(p)))
-  val outFree = !outValid || io.out.ready
-  when(io.out.fire) { outValid := false.B }
-  io.out.valid := outValid
-  io.out.bits := outBits
+  val output = new OutputRegister(io.out)
 
   def beginCell(left: UInt, right: UInt): Unit = {
     maskL := left; maskR := right; cntL := 0.U; cntR := 0.U
@@ -285,15 +280,15 @@ class GridVector(p: ElasParams) extends Module {
         .otherwise { extract(maskL, cntL, resL); extract(maskR, cntR, resR) }
     }
     is(sEmit) {
-      when(outFree && fDone) {
+      when(output.free && fDone) {
         val eol = gx === gw - 1.U
         val lastRow = markedAll && emitRow === markedRow
-        outValid := true.B
-        outBits.data.left := resL
-        outBits.data.right := resR
-        outBits.sof := gx === 0.U && emitRow === 0.U
-        outBits.eol := eol
-        outBits.eof := eol && lastRow
+        output.valid := true.B
+        output.bits.data.left := resL
+        output.bits.data.right := resR
+        output.bits.sof := gx === 0.U && emitRow === 0.U
+        output.bits.eol := eol
+        output.bits.eof := eol && lastRow
         when(eol) {
           // row gy - 1 is read for the last time; the last row also frees its own slot
           val prevSlot = (emitRow + 3.U)(1, 0)

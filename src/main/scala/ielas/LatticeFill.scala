@@ -149,12 +149,7 @@ abstract class LatticeFill(p: ElasParams) extends Module {
   val bHere = kIn && bIdx === i
   val both = aValid && kIn
 
-  val outValid = RegInit(false.B)
-  val outBits = Reg(new Framed(valueType))
-  val outFree = !outValid || io.out.ready
-  when(io.out.fire) { outValid := false.B }
-  io.out.valid := outValid
-  io.out.bits := outBits
+  val output = new OutputRegister(io.out)
 
   def absDiff(x: UInt, y: UInt): UInt = Mux(x > y, x - y, y - x)
   val lo = Mux(aVal < bVal, aVal, bVal)
@@ -192,11 +187,11 @@ abstract class LatticeFill(p: ElasParams) extends Module {
     is(sRead) { state := sNode } // list entry k and column i are read this cycle
   }
   when(doEmit) { // in sEmit
-    outValid := true.B
-    outBits.data := value.zext
-    outBits.sof := i === 0.U && procJ === 0.U
-    outBits.eol := eol
-    outBits.eof := eof
+    output.valid := true.B
+    output.bits.data := value.zext
+    output.bits.sof := i === 0.U && procJ === 0.U
+    output.bits.eol := eol
+    output.bits.eof := eof
     when(here) { aValid := true.B; aIdx := i; aVal := hereVal; k := k + 1.U; listPtr := listPtr + 1.U }
     i := i + 1.U
     uRaw := uRaw + step.U
@@ -300,7 +295,7 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
   }
   when(state === sRowWait) { segReady := false.B }
   pairStep := selPair
-  doEmit := state === sEmit && outFree
+  doEmit := state === sEmit && output.free
   here := selHere
   hereVal := selVal
 
@@ -387,7 +382,7 @@ class LatticeFillPaper(p: ElasParams) extends LatticeFill(p) {
   value := Mux(selSup, pa, Mux(selPair, pair(pa, pb), p.fillC.U))
   here := selSup
   hereVal := pa
-  doEmit := state === sEmit && outFree
+  doEmit := state === sEmit && output.free
 
   when(doEmit && selSup) { aU := u }
   lateWrite(lastAbove, doEmit && (procJ === 0.U || selSup), col(i), Cat(selSup, v, pa)) // row 0 clears the previous frame

@@ -71,12 +71,11 @@ class LrCheck(p: ElasParams) extends Module {
   }
 
   // ---- pipeline registers ----
-  val outValid = RegInit(false.B)
-  val outBits = Reg(new Framed(new DisparityPair(p)))
   // The output register drains into a 2-entry queue whose ready is a register, so io.out.ready reaches no memory
   // address (the pipeline's stall logic stays a couple of LUTs deep).
   val outQueue = Module(new Queue(new Framed(new DisparityPair(p)), 2))
-  val advance = !outValid || outQueue.io.enq.ready
+  val output = new OutputRegister(outQueue.io.enq)
+  val advance = output.free
 
   // s0: the next pixel to issue
   val pSlot = RegInit(0.U(2.W))
@@ -165,15 +164,14 @@ class LrCheck(p: ElasParams) extends Module {
   val keepL = s3.inL && consistent(s3.dL, s3.otherR)
   val keepR = s3.inR && consistent(s3.dR, s3.otherL)
 
-  when(outQueue.io.enq.fire) { outValid := false.B }
   when(advance) {
     // output register
-    outValid := s3Valid
-    outBits.data.left := Mux(keepL, s3.dL, (-1).S)
-    outBits.data.right := Mux(keepR, s3.dR, (-1).S)
-    outBits.sof := s3.sof
-    outBits.eol := s3.eol
-    outBits.eof := s3.eof
+    output.valid := s3Valid
+    output.bits.data.left := Mux(keepL, s3.dL, (-1).S)
+    output.bits.data.right := Mux(keepR, s3.dR, (-1).S)
+    output.bits.sof := s3.sof
+    output.bits.eol := s3.eol
+    output.bits.eof := s3.eof
 
     // s2 -> s3
     s3Valid := s2Valid
@@ -231,8 +229,6 @@ class LrCheck(p: ElasParams) extends Module {
     }
   }
 
-  outQueue.io.enq.valid := outValid
-  outQueue.io.enq.bits := outBits
   io.out <> outQueue.io.deq
 }
 

@@ -115,18 +115,14 @@ class Planes(p: ElasParams, enginesOverride: Int = 0) extends Module {
   }
 
   // ---- output: cells in dispatch order ----
-  val outValid = RegInit(false.B)
-  val outBits = Reg(new Framed(new PlaneCell(p)))
-  when(io.out.fire) { outValid := false.B }
-  val collect = pick(engines.map(_.io.done), collectPtr) && (!outValid || io.out.ready)
+  val output = new OutputRegister(io.out)
+  val collect = pick(engines.map(_.io.done), collectPtr) && output.free
   for ((e, k) <- engines.zipWithIndex) e.io.take := collect && collectPtr === k.U
   when(collect) {
-    outValid := true.B
-    outBits := pick(engines.map(_.io.result), collectPtr)
+    output.valid := true.B
+    output.bits := pick(engines.map(_.io.result), collectPtr)
     collectPtr := next(collectPtr)
   }
-  io.out.valid := outValid
-  io.out.bits := outBits
 }
 
 /** One lattice cell handed to a [[PlaneEngine]]: corners TL, TR, BL, BR, the cell's left column x0, bottom row y1,

@@ -76,6 +76,20 @@ class DisparityPair(p: ElasParams) extends Bundle {
   val right = SInt(p.signedDispBits.W)
 }
 
+/** A stage's output register, the last register of its pipeline: it holds one beat until `out` takes it. A stage
+  * loads a beat (`valid := true.B` and the fields of `bits`) only in a cycle where `free` holds; a load in the cycle
+  * `out` takes the previous beat replaces it. The registers are outValid and outBits in the Verilog.
+  */
+class OutputRegister[T <: Data](out: DecoupledIO[T]) {
+  val valid: Bool = RegInit(false.B).suggestName("outValid")
+  val bits: T = Reg(chiselTypeOf(out.bits)).suggestName("outBits")
+  /** The register is empty or is being emptied: a beat may be loaded. */
+  val free: Bool = (!valid || out.ready).suggestName("outFree")
+  when(out.fire) { valid := false.B }
+  out.valid := valid
+  out.bits := bits
+}
+
 /** Hands every beat of `in` to all `n` outputs. Each output may take it in a different cycle; the beat leaves `in`
   * once every output has taken it, so a stalled consumer holds back only the beats it has not yet seen.
   */

@@ -358,22 +358,17 @@ class SupportMatcher(p: ElasParams) extends Module {
   val prefetched = RegInit(false.B) // they are read, and the next node is searched
 
   // ---- output register ----
-  val outValid = RegInit(false.B)
-  val outBits = Reg(new Framed(SInt(p.signedDispBits.W)))
-  val outFree = !outValid || io.out.ready
-  when(io.out.fire) { outValid := false.B }
-  io.out.valid := outValid
-  io.out.bits := outBits
+  val output = new OutputRegister(io.out)
 
   val nodeEol = walkU === width - 1.U
   val nodeEof = nodeEol && walkV === height - 1.U
   val nodeSof = walkU === 0.U && walkV === 0.U
   def output(value: SInt, sof: Bool, eol: Bool, eof: Bool): Unit = {
-    outValid := true.B
-    outBits.data := value
-    outBits.sof := sof
-    outBits.eol := eol
-    outBits.eof := eof
+    output.valid := true.B
+    output.bits.data := value
+    output.bits.sof := sof
+    output.bits.eol := eol
+    output.bits.eof := eof
   }
   /** Moves the walker to the next node. */
   def advance(): Unit = {
@@ -436,7 +431,7 @@ class SupportMatcher(p: ElasParams) extends Module {
       readReference(false.B, walkU - r.U) // the node's references, used if it is searched (keeps the test off the address)
       when(!searched(walkU)) {
         // emitted here, after the previous node's decision
-        when(rowReady && outFree && !pendBusy) {
+        when(rowReady && output.free && !pendBusy) {
           output(none, nodeSof, nodeEol, nodeEof)
           advance()
         }
@@ -509,7 +504,7 @@ class SupportMatcher(p: ElasParams) extends Module {
       diff <= p.lrThreshold.U
     pendStage := 2.U
   }
-  when(pendStage === 2.U && outFree) {
+  when(pendStage === 2.U && output.free) {
     output(Mux(pendOk, pendLeft.d1(p.dispBits - 1, 0).zext, none), pendFlags(0), pendFlags(1), pendFlags(2))
     pendBusy := false.B
     pendStage := 0.U
