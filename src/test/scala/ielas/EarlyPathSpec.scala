@@ -49,12 +49,8 @@ object EarlyPathSpec {
         var cells = 0L
         poke(dut.io.frameWidth, w); poke(dut.io.frameHeight, h)
         val traffic = Traffic(rnd.nextDouble() * 0.4, rnd.nextDouble() * 0.4)
-        val beats = Iterator.range(0, w * h)
-        val cycles = run[PixelPair, EarlyBeat, Int, Unit](dut.clock, dut.io.in, beats,
-          (bits, i) => {
-            poke(bits.left, c.left.pixels(i) & 0xff); poke(bits.right, c.right.pixels(i) & 0xff)
-            poke(bits.sof, i == 0); poke(bits.eol, i % w == w - 1)
-          },
+        val cycles = run[PixelPair, EarlyBeat, PixelBeat, Unit](dut.clock, dut.io.in, pixelBeats(Seq((c.left, c.right))),
+          pokePixel,
           dut.io.out, lh.toLong * lw + gh.toLong * gw,
           o => {
             if (peek(o.isGrid)) {

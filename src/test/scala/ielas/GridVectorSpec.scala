@@ -124,12 +124,8 @@ object GridVectorSpec {
       s"$what: all frames of one run need the same size")
     poke(io.frameWidth, w)
     poke(io.frameHeight, h)
-    val beats = frames.iterator.flatMap { case (l, r) =>
-      Iterator.range(0, w * h).map(i => (l.pixels(i) & 0xff, r.pixels(i) & 0xff, i == 0, i % w == w - 1))
-    }
     val outputs = frames.length.toLong * p.gridCount(w) * p.gridCount(h)
-    run[PixelPair, Framed[GridCellPair], (Int, Int, Boolean, Boolean), GridBeat](clock, io.in, beats,
-      (bits, b) => { poke(bits.left, b._1); poke(bits.right, b._2); poke(bits.sof, b._3); poke(bits.eol, b._4) },
+    run[PixelPair, Framed[GridCellPair], PixelBeat, GridBeat](clock, io.in, pixelBeats(frames), pokePixel,
       io.out, outputs, gridBeat, sink, traffic, rnd, maxCycles, what)
   }
 

@@ -239,6 +239,17 @@ object StreamTester {
   }
 
   /** One output beat of the descriptor stream: both descriptors (byte k at bits 8k+7..8k) and the framing. */
+  /** One beat of the pixel-pair input stream. */
+  case class PixelBeat(left: Int, right: Int, sof: Boolean, eol: Boolean)
+  /** The input beats of frames (left, right) back to back, each in raster order. */
+  def pixelBeats(frames: Seq[(GrayImage, GrayImage)]): Iterator[PixelBeat] = frames.iterator.flatMap { case (l, r) =>
+    val w = l.width
+    Iterator.range(0, w * l.height).map(i => PixelBeat(l.pixels(i) & 0xff, r.pixels(i) & 0xff, i == 0, i % w == w - 1))
+  }
+  def pokePixel(bits: PixelPair, b: PixelBeat): Unit = {
+    poke(bits.left, b.left); poke(bits.right, b.right); poke(bits.sof, b.sof); poke(bits.eol, b.eol)
+  }
+
   case class DescriptorBeat(left: BigInt, right: BigInt, sof: Boolean, eol: Boolean, eof: Boolean)
 
   /** Streams same-size frames back to back into a [[DescriptorChain]] (frameWidth/frameHeight held at their size) and
@@ -254,15 +265,11 @@ object StreamTester {
     dut.io.clearError.poke(false.B)
     var lastSof: Option[Boolean] = None
     var lastEol: Option[Boolean] = None
-    val beats = frames.iterator.flatMap { case (l, r) =>
-      Iterator.range(0, w * h).map(i => (l.pixels(i) & 0xff, r.pixels(i) & 0xff, i == 0, i % w == w - 1))
-    }
-    run[PixelPair, Framed[DescriptorPair], (Int, Int, Boolean, Boolean), DescriptorBeat](
-      dut.clock, dut.io.in, beats,
+    run[PixelPair, Framed[DescriptorPair], PixelBeat, DescriptorBeat](dut.clock, dut.io.in, pixelBeats(frames),
       (bits, b) => {
-        bits.left.poke(b._1.U); bits.right.poke(b._2.U)
-        if (!lastSof.contains(b._3)) { bits.sof.poke(b._3.B); lastSof = Some(b._3) }
-        if (!lastEol.contains(b._4)) { bits.eol.poke(b._4.B); lastEol = Some(b._4) }
+        bits.left.poke(b.left.U); bits.right.poke(b.right.U)
+        if (!lastSof.contains(b.sof)) { bits.sof.poke(b.sof.B); lastSof = Some(b.sof) }
+        if (!lastEol.contains(b.eol)) { bits.eol.poke(b.eol.B); lastEol = Some(b.eol) }
       },
       dut.io.out, frames.length.toLong * w * h,
       o => DescriptorBeat(o.data.left.peek().litValue, o.data.right.peek().litValue, o.sof.peek().litToBoolean,

@@ -107,12 +107,8 @@ object SupportMatcherSpec {
     val (w, h) = (frames.head._1.width, frames.head._1.height)
     poke(dut.io.frameWidth, w)
     poke(dut.io.frameHeight, h)
-    val beats = frames.iterator.flatMap { case (l, r) =>
-      Iterator.range(0, w * h).map(i => (l.pixels(i) & 0xff, r.pixels(i) & 0xff, i == 0, i % w == w - 1))
-    }
     val outputs = frames.length.toLong * p.latticeCount(w) * p.latticeCount(h)
-    run[PixelPair, Framed[chisel3.SInt], (Int, Int, Boolean, Boolean), SupportBeat](dut.clock, dut.io.in, beats,
-      (bits, b) => { poke(bits.left, b._1); poke(bits.right, b._2); poke(bits.sof, b._3); poke(bits.eol, b._4) },
+    run[PixelPair, Framed[chisel3.SInt], PixelBeat, SupportBeat](dut.clock, dut.io.in, pixelBeats(frames), pokePixel,
       dut.io.out, outputs,
       o => SupportBeat(peek(o.data).toInt, peek(o.sof), peek(o.eol), peek(o.eof)),
       sink, traffic, rnd, maxCycles, what)
