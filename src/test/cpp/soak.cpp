@@ -310,7 +310,8 @@ struct Beat {
 std::vector<Frame> readManifest(const std::string& path, int maxW, int maxH) {
   std::ifstream f(path);
   if (!f) die(1, "soak: cannot read manifest " + path);
-  const std::string dir = std::filesystem::path(path).parent_path().string();
+  std::string dir = std::filesystem::path(path).parent_path().string();
+  if (dir.empty()) dir = ".";
   std::vector<Frame> frames;
   std::string line;
   int lineNo = 0;
