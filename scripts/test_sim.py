@@ -7,7 +7,9 @@ frame is complete), seen C cycles late (+stub_lat_rows=L, +stub_extra=C). Withou
 WxH therefore take exactly F*W*H + (L+1)*W + C cycles, and every row's last output follows its last input by
 (L+1)*W + C cycles, i.e. ceil(((L+1)*W + C) / W) latency rows. These tests compare the harness's numbers with
 those hand-computed values, its disparity.npy with left*16, and check that every fault the stub can inject
-(+stub_fault=N) and every bad input ends with the documented exit code and message.
+(+stub_fault=N) and every bad input ends with the documented exit code and message. The soak mode (ielas_sim
+soak-plan / soak, scripts/soak.sh) is tested the same way: good frames against left*16, and the malformed frames
+the stub neither flags nor pads must make the run fail with the documented exit code.
 
 Run: python3 scripts/test_sim.py   (no numpy needed; images are PGM files written here)
 """
@@ -380,6 +382,10 @@ class HarnessTest(unittest.TestCase):
         other = self.run_soak(manifest, ["--seed", "4"])
         self.assertEqual(report_value(again.stdout, "cycles"), report_value(r.stdout, "cycles"))
         self.assertNotEqual(report_value(other.stdout, "cycles"), report_value(r.stdout, "cycles"))
+        # a manifest named without a directory: its paths are relative to the current directory
+        here = subprocess.run([self.bin, "soak", "--manifest", "manifest.txt", "--config", CONFIG],
+                              cwd=os.path.dirname(manifest), capture_output=True, text=True, timeout=120)
+        self.assertEqual(here.returncode, 0, here.stdout + here.stderr)
 
     def test_soak_mismatch(self):
         manifest, lefts = self.soak_frames("soak-mismatch", self.GOOD)
