@@ -5,6 +5,8 @@ SHELL := /bin/bash
 CONFIG  ?= kitti
 STAGE   ?= descriptor
 SHARED  ?= ../shared/data
+FRAMES  ?= 200
+SEED    ?= 1
 LEFT    ?=
 RIGHT   ?=
 GT      ?=
@@ -25,7 +27,7 @@ CONFIG_NAME = $(notdir $(basename $(CONFIG)))
 VERILOG_DIR = build/verilog/$(CONFIG_NAME)
 
 .PHONY: help deps deps-sim deps-golden deps-synth configs golden golden-test verilog lint simulate compare run \
-        test test-golden test-hw test-full bench eval synth sweep clean \
+        test test-golden test-hw test-full soak bench eval synth sweep clean \
         sweep-configs sweep-point sweep-hwcheck test-sweep test-sim timing fusesoc-lint
 
 help: ## this list
@@ -36,6 +38,7 @@ help: ## this list
 	@echo "Variables: CONFIG=<name|file.json> (default kitti)  STAGE=descriptor|support|filter|interp|grid|..."
 	@echo "           LEFT= RIGHT= GT= (a stereo pair, PNG/PGM)  OUT=<dir>  A= B= (dump dirs for compare)"
 	@echo "           MODE=elas|ielas PRESET=robotics|middlebury (eval)  IELAS_SEED=<n> (replay a test seed)"
+	@echo "           FRAMES=<n> SEED=<n> (soak)  SHARED=<dir> (the dataset folder, default ../shared/data)"
 
 # ---- input preflight: scripts/check_inputs.py checks LEFT, RIGHT, GT, CONFIG and POINT in milliseconds (one line,
 # exit 2). It is the first prerequisite of the targets that take them, and the installs that every long build waits
@@ -47,7 +50,7 @@ deps-sim deps-golden deps-synth: | check-inputs
 run: PREFLIGHT = --config '$(CONFIG)' --left '$(LEFT)' --right '$(RIGHT)' --gt '$(GT)'
 simulate: PREFLIGHT = --config '$(CONFIG)' --left '$(LEFT)' --right '$(RIGHT)' --require left,right
 eval: PREFLIGHT = --config '$(if $(PRESET),,$(CONFIG))'
-verilog lint fusesoc-lint synth: PREFLIGHT = --config '$(CONFIG)'
+verilog lint fusesoc-lint synth soak: PREFLIGHT = --config '$(CONFIG)'
 sweep-point: PREFLIGHT = --point '$(POINT)' --require point
 
 # ---- installs (idempotent; skipped when present) ----
@@ -134,6 +137,10 @@ test-hw: golden
 
 test-full: deps-sim golden ## full-size frames end to end (not in CI): KITTI 1241x376 and a 640x480 Reindeer crop
 	scripts/test_full.sh
+
+# The Verilog is build/verilog/<config>/ as `make verilog` left it (made only when missing).
+soak: check-inputs deps-sim golden $(if $(wildcard $(VERILOG_DIR)/IElas.sv),,verilog) ## long robustness run (not in CI): FRAMES= (200) random-size frames, gaps, stalls, 1 in 10 malformed, vs golden; SEED=
+	scripts/soak.sh $(CONFIG) --frames $(FRAMES) --seed $(SEED) --data $(SHARED)
 
 # ---- measurements ----
 eval: check-inputs golden ## accuracy tables: MODE=elas|ielas PRESET=robotics|middlebury or CONFIG=

@@ -66,7 +66,7 @@ else
   [ -f "$VDIR/IElas.sv" ] || die "no IElas.sv in build/verilog/$NAME"
   for port in io_in_valid io_in_ready io_in_bits_left io_in_bits_right io_in_bits_sof io_in_bits_eol io_frameWidth \
               io_frameHeight io_error io_clearError io_out_valid io_out_ready io_out_bits_data io_out_bits_sof \
-              io_out_bits_eol io_out_bits_eof; do
+              io_out_bits_eol io_out_bits_eof io_errorCauses io_frameAborted; do
     grep -qw "$port" "$VDIR/IElas.sv" \
       || die "build/verilog/$NAME/IElas.sv has no port $port: the harness needs the full top's ports (docs/simulation.md)"
   done
@@ -75,8 +75,8 @@ fi
 BIN="$DIR/ielas_sim"
 if [ "$CMD" = path ]; then echo "$BIN"; exit 0; fi
 
-HARNESS=("$ROOT/src/test/cpp/ielas_sim.cpp" "$ROOT/golden/src/image_io.cpp" "$ROOT/golden/src/npy.cpp")
-HEADERS=("$ROOT/golden/include/ielas/image_io.hpp" "$ROOT/golden/include/ielas/npy.hpp" "$ROOT/golden/include/ielas/config.hpp")
+HARNESS=("$ROOT/src/test/cpp/ielas_sim.cpp" "$ROOT/src/test/cpp/soak.cpp" "$ROOT/golden/src/image_io.cpp" "$ROOT/golden/src/npy.cpp")
+HEADERS=("$ROOT/src/test/cpp/harness.hpp" "$ROOT/golden/include/ielas/image_io.hpp" "$ROOT/golden/include/ielas/npy.hpp" "$ROOT/golden/include/ielas/config.hpp")
 OPENCV_CFLAGS="$(pkg-config --cflags opencv4)" || die "OpenCV 4 not found (make deps-golden)"
 OPENCV_LIBS="$(pkg-config --libs opencv4)"
 

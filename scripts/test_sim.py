@@ -7,7 +7,9 @@ frame is complete), seen C cycles late (+stub_lat_rows=L, +stub_extra=C). Withou
 WxH therefore take exactly F*W*H + (L+1)*W + C cycles, and every row's last output follows its last input by
 (L+1)*W + C cycles, i.e. ceil(((L+1)*W + C) / W) latency rows. These tests compare the harness's numbers with
 those hand-computed values, its disparity.npy with left*16, and check that every fault the stub can inject
-(+stub_fault=N) and every bad input ends with the documented exit code and message.
+(+stub_fault=N) and every bad input ends with the documented exit code and message. The soak mode (ielas_sim
+soak-plan / soak, scripts/soak.sh) is tested the same way: good frames against left*16, and the malformed frames
+the stub neither flags nor pads must make the run fail with the documented exit code.
 
 Run: python3 scripts/test_sim.py   (no numpy needed; images are PGM files written here)
 """
@@ -56,6 +58,16 @@ def write_npy_i2(path, h, w, values):
     with open(path, "wb") as f:
         f.write(b"\x93NUMPY\x01\x00" + struct.pack("<H", len(header)) + header.encode("latin1"))
         f.write(struct.pack("<%dh" % len(values), *values))
+
+
+def read_pgm(path):
+    """(w, h, pixels) of a binary 8-bit PGM with a plain header (as soak-plan writes them)."""
+    with open(path, "rb") as f:
+        data = f.read()
+    m = re.match(rb"P5\s+(\d+)\s+(\d+)\s+255\s", data)
+    assert m, "not an 8-bit binary PGM: " + path
+    w, h = int(m.group(1)), int(m.group(2))
+    return w, h, list(data[m.end():m.end() + w * h])
 
 
 def report_value(stdout, key):
@@ -321,6 +333,202 @@ class HarnessTest(unittest.TestCase):
         self.assertRegex(r.stdout, r"run: small, pair \S*/build/run/synth-small/left\.pgm")
         self.assertIn("ielas_sim: 128x64 (max 128x64)", r.stdout)
         self.assertRegex(r.stdout, r"(?m)^bad-3: \d+\.\d\d$")
+
+    # ---- soak mode (ielas_sim soak-plan / soak, scripts/soak.sh): the stub computes left*16 and checks only the
+    # frame size, so good frames are compared with left*16 and malformed frames must be reported as not flagged ----
+
+    def soak_frames(self, name, specs):
+        """Writes a manifest of frames [(kind, w, h, gap, stall, a, b)] with seeded random images; a good frame's
+        expected output is left*16. Returns (manifest path, [left pixels per frame])."""
+        d = self.path(name)
+        os.makedirs(d, exist_ok=True)
+        rng = random.Random(name)
+        lines, lefts = ["# test manifest"], []
+        for i, (kind, w, h, gap, stall, a, b) in enumerate(specs):
+            left = [rng.randrange(256) for _ in range(w * h)]
+            write_pgm(os.path.join(d, "%d_L.pgm" % i), w, h, left)
+            write_pgm(os.path.join(d, "%d_R.pgm" % i), w, h, [rng.randrange(256) for _ in range(w * h)])
+            expect = "-"
+            if kind == "good":
+                expect = "%d.npy" % i
+                write_npy_i2(os.path.join(d, expect), h, w, [16 * v for v in left])
+            lines.append("%d %s %d %d %s %s %d %d test %d_L.pgm %d_R.pgm %s" % (i, kind, w, h, gap, stall, a, b, i, i,
+                                                                              expect))
+            lefts.append(left)
+        with open(os.path.join(d, "manifest.txt"), "w") as f:
+            f.write("\n".join(lines) + "\n")
+        return os.path.join(d, "manifest.txt"), lefts
+
+    def run_soak(self, manifest, args=()):
+        return subprocess.run([self.bin, "soak", "--manifest", manifest, "--config", CONFIG] + list(args),
+                              capture_output=True, text=True, timeout=120)
+
+    GOOD = [("good", 100, 40, 0, 0, 0, 0), ("good", 32, 16, 0.3, 0.2, 0, 0), ("good", 128, 64, 0.1, 0.5, 0, 0),
+            ("good", 57, 23, 0, 0.3, 0, 0), ("good", 100, 40, 0.5, 0, 0, 0)]
+
+    def test_soak_good_frames(self):
+        manifest, _ = self.soak_frames("soak-good", self.GOOD)
+        r = self.run_soak(manifest, ["--seed", "3", "--progress", "2"])
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        self.assertEqual(report_value(r.stdout, "values compared"), str(sum(w * h for _, w, h, *_ in self.GOOD)))
+        self.assertEqual(report_value(r.stdout, "mismatches"), "0")
+        self.assertIn("frames streamed: 5 (5 good, 0 malformed", r.stdout)
+        self.assertIn("soak: 4 of 5 frames out", r.stdout)
+        self.assertEqual(report_value(r.stdout, "framing errors"), "0")
+        self.assertEqual(report_value(r.stdout, "lost or shifted frames"), "0")
+        self.assertTrue(r.stdout.rstrip().endswith("soak: passed"), r.stdout)
+        # the seed drives the gaps and stalls: the same seed gives the same cycles, another seed other cycles
+        again = self.run_soak(manifest, ["--seed", "3"])
+        other = self.run_soak(manifest, ["--seed", "4"])
+        self.assertEqual(report_value(again.stdout, "cycles"), report_value(r.stdout, "cycles"))
+        self.assertNotEqual(report_value(other.stdout, "cycles"), report_value(r.stdout, "cycles"))
+        # a manifest named without a directory: its paths are relative to the current directory
+        here = subprocess.run([self.bin, "soak", "--manifest", "manifest.txt", "--config", CONFIG],
+                              cwd=os.path.dirname(manifest), capture_output=True, text=True, timeout=120)
+        self.assertEqual(here.returncode, 0, here.stdout + here.stderr)
+
+    def test_soak_mismatch(self):
+        manifest, lefts = self.soak_frames("soak-mismatch", self.GOOD)
+        w, h = 57, 23
+        values = [16 * v for v in lefts[3]]
+        values[5 * w + 7] = -1
+        write_npy_i2(os.path.join(os.path.dirname(manifest), "3.npy"), h, w, values)
+        r = self.run_soak(manifest)
+        self.assertEqual(r.returncode, 5, r.stdout + r.stderr)
+        self.assertEqual(report_value(r.stdout, "mismatches"), "1")
+        self.assertIn("mismatch: frame 3 (good 57x23 test) first at (x=7, y=5): hardware %d, expected -1"
+                      % (16 * lefts[3][5 * w + 7]), r.stdout)
+        self.assertEqual(r.stderr.strip(), "ielas_sim: soak: 1 of %d values differ from the golden model"
+                         % sum(w * h for _, w, h, *_ in self.GOOD))
+
+    def test_soak_truncated_frame_not_flagged(self):
+        # the stub passes the 10 lines of the truncated frame 1 out with sof and eol but no eof (its eof comes from
+        # the height): cut output as a malformed frame's, but no errorCauses and no frameAborted pulse
+        manifest, _ = self.soak_frames("soak-trunc", [self.GOOD[0], ("trunc", 100, 40, 0.1, 0.1, 10, 0)] + self.GOOD[1:])
+        r = self.run_soak(manifest)
+        self.assertEqual(r.returncode, 4, r.stdout + r.stderr)
+        self.assertIn("malformed frames flagged: 0 of 1", r.stdout)
+        self.assertIn("not flagged: frame 1 (trunc 100x40 test) (truncated frame): errorCauses pulse no, "
+                      "frameAborted pulse no", r.stdout)
+        self.assertIn("malformed frames cut: 1 of 1 (whole lines, no eof; lines put out 10..10)", r.stdout)
+        self.assertIn("errorCauses 0x00 at cycle", r.stdout)  # the next frame's sof should have pulsed bit 3
+        self.assertEqual(report_value(r.stdout, "mismatches"), "0")  # every good frame still exact
+        self.assertRegex(r.stderr, r"^ielas_sim: soak: 1 malformed frame\(s\) not flagged, \d+ flag error\(s\)\n$")
+
+    def test_soak_short_line_shifts(self):
+        # the stub does not pad a short line: its frame ends with eof 90 pixels early, which the harness must
+        # report as a lost or shifted frame
+        manifest, _ = self.soak_frames("soak-short", [self.GOOD[0], ("short", 100, 40, 0, 0, 3, 9)] + self.GOOD[1:])
+        r = self.run_soak(manifest)
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        self.assertIn("framing error: frame 2 (good 32x16 test): 3910 output pixels up to eof, expected 512 "
+                      "(frame lost or shifted)", r.stdout)
+        self.assertNotEqual(report_value(r.stdout, "lost or shifted frames"), "0")
+
+    def test_soak_faults(self):
+        same = [("good", 100, 40, 0, 0, 0, 0)] * 3
+        manifest, _ = self.soak_frames("soak-faults", same)
+        for fault, code, pattern in [
+                (2, 2, r"framing error: frame 0 \(good 100x40 test\): output cut after 4000 pixels without eof "
+                       r"\(frame lost or shifted\)"),
+                (3, 3, r"timeout: no output transfer for 5000 cycles"),
+                (4, 4, r"flag error: error bit 1 at cycle \d+, expected 0"),
+                (5, 2, r"framing error: frame 0 \(good 100x40 test\): output cut after 100 pixels without eof")]:
+            with self.subTest(fault=fault):
+                r = self.run_soak(manifest, ["+stub_fault=%d" % fault, "--timeout", "5000"])
+                self.assertEqual(r.returncode, code, r.stdout + r.stderr)
+                self.assertRegex(r.stdout, pattern)
+                self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+
+    def test_soak_bad_manifest(self):
+        d = self.path("soak-bad")
+        manifest, _ = self.soak_frames("soak-bad", self.GOOD[:2])
+        with open(manifest) as f:
+            good = f.read()
+        cases = [
+            ("0 good 100 40 0 0 0 0 test 0_L.pgm\n", r"line 1: expected 12 fields"),
+            (good + "2 short 100 40 0 0 3 9 test 0_L.pgm 0_R.pgm -\n", r"the last frame must be good"),
+            ("0 good 129 40 0 0 0 0 test 0_L.pgm 0_R.pgm 0.npy\n", r"129x40 is outside 32x16\.\.128x64"),
+            ("0 bent 100 40 0 0 0 0 test 0_L.pgm 0_R.pgm 0.npy\n", r"unknown frame kind 'bent'"),
+            ("0 short 100 40 0 0 3 99 test 0_L.pgm 0_R.pgm -\n" + good, r"parameters a, b out of range"),
+            ("0 good 100 40 0 0 0 0 test 0_L.pgm 0_R.pgm missing.npy\n", r"no expected output .*missing\.npy"),
+            ("0 good 32 16 0 0 0 0 test 0_L.pgm 0_R.pgm 0.npy\n", r"0_L\.pgm is not 32x16"),
+        ]
+        for text, pattern in cases:
+            with self.subTest(text=text.splitlines()[0]):
+                with open(os.path.join(d, "bad.txt"), "w") as f:
+                    f.write(text)
+                r = self.run_soak(os.path.join(d, "bad.txt"))
+                self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+                self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+                self.assertRegex(r.stderr, pattern)
+
+    def test_soak_plan(self):
+        # without a dataset every frame is synthetic; frame 5, 15, ... is malformed (never the last), kinds cycling
+        out = self.path("plan")
+        args = [self.bin, "soak-plan", "--config", CONFIG, "--frames", "26", "--data", self.path("no-data")]
+        r = subprocess.run(args + ["--seed", "9", "--out", out], capture_output=True, text=True)
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        self.assertIn("26 frames (24 good, 2 malformed; 0 dataset crops from 0 pairs, 26 synthetic)", r.stdout)
+        with open(os.path.join(out, "manifest.txt")) as f:
+            text = f.read()
+        rows = [line.split() for line in text.splitlines() if not line.startswith("#")]
+        self.assertEqual([row[0] for row in rows], [str(i) for i in range(26)])
+        self.assertEqual([(row[0], row[1]) for row in rows if row[1] != "good"], [("5", "short"), ("15", "long")])
+        self.assertEqual(rows[-1][1], "good")
+        for row in rows:
+            w, h = int(row[2]), int(row[3])
+            self.assertTrue(32 <= w <= 128 and 16 <= h <= 64, row)
+            self.assertEqual(read_pgm(os.path.join(out, row[9]))[:2], (w, h))
+            self.assertEqual(read_pgm(os.path.join(out, row[10]))[:2], (w, h))
+            self.assertEqual(row[11] == "-", row[1] != "good")
+        # the same seed gives the same plan; another seed another one
+        r = subprocess.run(args + ["--seed", "9", "--out", self.path("plan-again")], capture_output=True, text=True)
+        with open(os.path.join(self.path("plan-again"), "manifest.txt")) as f:
+            self.assertEqual(f.read(), text)
+        r = subprocess.run(args + ["--seed", "10", "--out", self.path("plan-other")], capture_output=True, text=True)
+        with open(os.path.join(self.path("plan-other"), "manifest.txt")) as f:
+            self.assertNotEqual(f.read().splitlines()[2:], text.splitlines()[2:])
+        # four malformed frames cycle through the four kinds
+        r = subprocess.run(args[:4] + ["--frames", "40", "--malformed-every", "4", "--data", self.path("no-data"),
+                                       "--out", self.path("plan-kinds")], capture_output=True, text=True)
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        with open(os.path.join(self.path("plan-kinds"), "manifest.txt")) as f:
+            kinds = [line.split()[1] for line in f if not line.startswith("#")]
+        self.assertEqual([k for k in kinds if k != "good"], ["short", "long", "sof", "trunc"] * 2 + ["short", "long"])
+        self.assertEqual([i for i, k in enumerate(kinds) if k != "good"], list(range(2, 40, 4)))
+
+    def test_soak_script(self):
+        # scripts/soak.sh end to end on the stub: plan, golden model per good frame, run. Without malformed frames
+        # the only failures are the stub's values, so the mismatch count must equal golden != left*16 over the frames.
+        golden = os.environ.get("IELAS_GOLDEN", os.path.join(ROOT, "golden", "build", "ielas-golden"))
+        if not os.access(golden, os.X_OK):
+            self.skipTest("no golden model binary (make golden, or set IELAS_GOLDEN)")
+        out = self.path("soak-script")
+        r = subprocess.run([os.path.join(ROOT, "scripts", "soak.sh"), CONFIG, "--stub", "--frames", "8",
+                            "--malformed-every", "0", "--seed", "2", "--out", out],
+                           capture_output=True, text=True, env=dict(os.environ, IELAS_GOLDEN=golden), timeout=600)
+        self.assertEqual(r.returncode, 5, r.stdout + r.stderr)
+        want = total = 0
+        with open(os.path.join(out, "manifest.txt")) as f:
+            for line in f:
+                if line.startswith("#"):
+                    continue
+                row = line.split()
+                _, _, left = read_pgm(os.path.join(out, row[9]))
+                _, values = read_npy_i2(os.path.join(out, row[11]))
+                want += sum(1 for v, l in zip(values, left) if v != 16 * l)
+                total += len(values)
+        self.assertGreater(want, 0)
+        self.assertEqual(report_value(r.stdout, "values compared"), str(total))
+        self.assertEqual(report_value(r.stdout, "mismatches"), str(want))
+        self.assertRegex(r.stdout, r"soak: golden model on 8 distinct good frames")
+        self.assertRegex(r.stdout, r"(?m)^soak: total wall time [0-9.]+ s")
+        with open(os.path.join(out, "soak.log")) as f:
+            self.assertIn("values compared: %d" % total, f.read())
+        r = subprocess.run([os.path.join(ROOT, "scripts", "soak.sh"), CONFIG, "--frames", "x"], capture_output=True,
+                           text=True)
+        self.assertEqual((r.returncode, r.stderr.strip()), (1, "soak.sh: --frames wants a positive integer, got 'x'"))
 
     # ---- the build script and bench ----
 

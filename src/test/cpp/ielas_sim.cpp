@@ -8,13 +8,13 @@
 // last frame), 3 timeout (no output transfer for --timeout cycles), 4 the hardware raised its error bit,
 // 5 --expect given and the last frame's output differs from it.
 // Usage: see usage() below; docs/simulation.md has the details.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <memory>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -22,30 +22,21 @@
 
 #include <opencv2/core.hpp>
 
-#include "VIElas.h"
-#include "verilated.h"
-
+#include "harness.hpp"
 #include "ielas/image_io.hpp"
 #include "ielas/npy.hpp"
 
-#ifndef IELAS_SIM_CONFIG
-#define IELAS_SIM_CONFIG ""
-#endif
-#ifndef IELAS_SIM_CONFIG_DIR
-#define IELAS_SIM_CONFIG_DIR "golden/configs"
-#endif
-
 namespace {
 
-[[noreturn]] void die(int code, const std::string& msg) {
-  std::fprintf(stderr, "ielas_sim: %s\n", msg.c_str());
-  std::exit(code);
-}
+using harness::die;
+using harness::parseInt;
+using harness::parseProb;
 
 const char* kUsage =
     "usage: ielas_sim --left L --right R --out DIR [--config NAME|FILE.json | --max-width W --max-height H]\n"
     "                 [--frames N] [--gaps P] [--stalls P] [--seed S] [--timeout CYCLES] [--expect D.npy] [--images]\n"
     "                 [+plusarg ...]\n"
+    "       ielas_sim soak-plan ... | ielas_sim soak ...   (the soak run, `make soak`; --help of each)\n"
     "  --config      configuration whose maxWidth/maxHeight bound the frame (default: the one built: '" IELAS_SIM_CONFIG
     "')\n"
     "  --frames N    stream the pair N times back to back (1..10000, default 1); the last frame's output is written\n"
@@ -67,31 +58,6 @@ struct Options {
   bool images = false;
   std::vector<std::string> plusargs;
 };
-
-long long parseInt(const std::string& opt, const std::string& v, long long lo, long long hi) {
-  size_t used = 0;
-  long long x = 0;
-  try {
-    x = std::stoll(v, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != v.size() || x < lo || x > hi)
-    die(1, opt + " wants an integer in " + std::to_string(lo) + ".." + std::to_string(hi) + ", got '" + v + "'");
-  return x;
-}
-
-double parseProb(const std::string& opt, const std::string& v) {
-  size_t used = 0;
-  double x = -1;
-  try {
-    x = std::stod(v, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != v.size() || !(x >= 0.0 && x < 1.0)) die(1, opt + " wants a probability in [0, 1), got '" + v + "'");
-  return x;
-}
 
 Options parseArgs(int argc, char** argv) {
   Options o;
@@ -131,29 +97,6 @@ Options parseArgs(int argc, char** argv) {
   return o;
 }
 
-// maxWidth/maxHeight of a configuration: a JSON file, or NAME looked up in $IELAS_CONFIG_DIR, then in the
-// repository's golden/configs (compiled in by the build script).
-void readConfigSize(const std::string& config, int& maxWidth, int& maxHeight) {
-  std::string path = config;
-  bool isFile = config.find('/') != std::string::npos ||
-                (config.size() > 5 && config.compare(config.size() - 5, 5, ".json") == 0);
-  if (!isFile) {
-    const char* env = std::getenv("IELAS_CONFIG_DIR");
-    std::string dir = env && *env ? env : IELAS_SIM_CONFIG_DIR;
-    path = dir + "/" + config + ".json";
-  }
-  if (!std::filesystem::is_regular_file(path)) die(1, "unknown configuration '" + config + "' (no file " + path + ")");
-  try {
-    cv::FileStorage fs(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_JSON);
-    cv::FileNode w = fs["maxWidth"], h = fs["maxHeight"];
-    if (!w.isInt() || !h.isInt()) die(1, "configuration " + path + ": maxWidth/maxHeight missing or not integers");
-    maxWidth = static_cast<int>(w);
-    maxHeight = static_cast<int>(h);
-  } catch (const cv::Exception&) {
-    die(1, "configuration " + path + ": malformed JSON");
-  }
-}
-
 struct Report {
   uint64_t firstIn = 0, lastOut = 0;
   bool sawIn = false;
@@ -162,9 +105,11 @@ struct Report {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc > 1 && std::string(argv[1]) == "soak-plan") return harness::soakPlanMain(argc - 1, argv + 1);
+  if (argc > 1 && std::string(argv[1]) == "soak") return harness::soakMain(argc - 1, argv + 1);
   Options o = parseArgs(argc, argv);
   int maxW = o.maxWidth, maxH = o.maxHeight;
-  if (maxW == 0) readConfigSize(o.config, maxW, maxH);
+  if (maxW == 0) harness::readConfigSize(o.config, maxW, maxH);
 
   cv::Mat left, right;
   try {
@@ -200,21 +145,14 @@ int main(int argc, char** argv) {
               (unsigned long)F, o.gaps, o.stalls, (unsigned long)o.seed);
   std::fflush(stdout);
 
-  // Only '+' arguments reach the model, so its $value$plusargs never sees our options.
-  std::vector<std::string> vargsStore = {argv[0]};
-  for (const auto& p : o.plusargs) vargsStore.push_back(p);
-  std::vector<const char*> vargs;
-  for (const auto& s : vargsStore) vargs.push_back(s.c_str());
-  auto ctx = std::make_unique<VerilatedContext>();
-  ctx->commandArgs(static_cast<int>(vargs.size()), vargs.data());
-  auto top = std::make_unique<VIElas>(ctx.get());
+  harness::Dut dut(argv[0], o.plusargs);
 
   std::mt19937_64 rng(o.seed);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
 
   std::vector<int16_t> lastFrame(N, 0);
   std::vector<uint64_t> inRowLast(F * H, 0), outRowLast(F * H, 0);
-  uint64_t inIdx = 0, outIdx = 0, cycle = 0, lastOutProgress = 0, totalCycles = 0;
+  uint64_t inIdx = 0, outIdx = 0, cycle = 0, lastOutProgress = 0;
   uint64_t framingErrors = 0;
   Report rep;
   bool inValid = false;
@@ -227,47 +165,30 @@ int main(int argc, char** argv) {
 
   auto t0 = std::chrono::steady_clock::now();
 
-  top->io_frameWidth = W;
-  top->io_frameHeight = H;
-  top->io_clearError = 0;
-  top->io_in_valid = 0;
-  top->io_out_ready = 0;
-  top->reset = 1;
-  for (int i = 0; i < 5; ++i) {
-    top->clock = 0;
-    top->eval();
-    top->clock = 1;
-    top->eval();
-    ++totalCycles;
-  }
-  top->reset = 0;
+  dut.reset(5, W, H);
 
-  // One clock cycle: drive inputs with the clock low, sample the handshakes, then the rising edge.
+  // One clock cycle: drive the next pixel (offered until taken), sample the handshakes, then the rising edge.
   auto step = [&](bool driveInput, bool& inFire, bool& outFire, int16_t& data, bool& sof, bool& eol, bool& eof) {
     if (driveInput && !inValid && inIdx < inTotal) inValid = o.gaps == 0 || uni(rng) >= o.gaps;
     uint64_t p = inIdx % N;
     int x = static_cast<int>(p % W), y = static_cast<int>(p / W);
-    top->io_in_valid = inValid;
-    top->io_in_bits_left = left.at<uint8_t>(y, x);
-    top->io_in_bits_right = right.at<uint8_t>(y, x);
-    top->io_in_bits_sof = p == 0;
-    top->io_in_bits_eol = x == W - 1;
-    top->io_out_ready = o.stalls == 0 || uni(rng) >= o.stalls;
-    top->clock = 0;
-    top->eval();
-    inFire = top->io_in_valid && top->io_in_ready;
-    outFire = top->io_out_valid && top->io_out_ready;
-    data = static_cast<int16_t>(top->io_out_bits_data);
-    sof = top->io_out_bits_sof;
-    eol = top->io_out_bits_eol;
-    eof = top->io_out_bits_eof;
-    top->clock = 1;
-    top->eval();
-    ++totalCycles;
+    harness::InBeat beat;
+    beat.left = left.at<uint8_t>(y, x);
+    beat.right = right.at<uint8_t>(y, x);
+    beat.sof = p == 0;
+    beat.eol = x == W - 1;
+    bool outReady = o.stalls == 0 || uni(rng) >= o.stalls;
+    harness::Sample s = dut.step(inValid, beat, outReady, W, H);
+    inFire = s.inFire;
+    outFire = s.outFire;
+    data = s.data;
+    sof = s.sof;
+    eol = s.eol;
+    eof = s.eof;
   };
 
   while (outIdx < inTotal) {
-    if (ctx->gotFinish()) die(1, "the model called $finish at cycle " + std::to_string(cycle));
+    if (dut.finished()) die(1, "the model called $finish at cycle " + std::to_string(cycle));
     bool inFire, outFire, sof, eol, eof;
     int16_t data;
     step(true, inFire, outFire, data, sof, eol, eof);
@@ -313,8 +234,8 @@ int main(int argc, char** argv) {
     if (outFire) ++extra;
   }
   if (extra > 0) framing(std::to_string(extra) + " output pixel(s) after the last frame's last pixel");
-  const bool errorBit = top->io_error;
-  top->final();
+  const bool errorBit = dut.error();
+  dut.final();
   double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   const uint64_t cycles = rep.lastOut - rep.firstIn + 1;
@@ -360,8 +281,8 @@ int main(int argc, char** argv) {
   std::printf("latency rows: %lu\n", (unsigned long)latencyRows);
   std::printf("error: %d\n", errorBit ? 1 : 0);
   std::printf("framing errors: %lu\n", (unsigned long)framingErrors);
-  std::printf("sim wall time: %.3f s (%lu cycles simulated, %.0f cycles/s)\n", wall, (unsigned long)totalCycles,
-              totalCycles / wall);
+  std::printf("sim wall time: %.3f s (%lu cycles simulated, %.0f cycles/s)\n", wall, (unsigned long)dut.clocks(),
+              dut.clocks() / wall);
   std::printf("wrote %s/disparity.npy, %s/cycles.txt%s\n", o.out.c_str(), o.out.c_str(),
               o.images ? ", disparity.pfm, disparity_kitti.png" : "");
   if (framingErrors > 0) die(2, std::to_string(framingErrors) + " framing error(s)");

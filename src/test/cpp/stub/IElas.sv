@@ -17,7 +17,9 @@
 //                        3 output stops after 100 pixels, 4 error bit raised at the first frame's end,
 //                        5 a second sof at output pixel (1, 0), 6 eol one pixel early on output row 0
 // Frame size check like the real top: a start of frame whose size lies outside 32x16..MAX_W x MAX_H raises the
-// sticky error bit (cleared by reset or clearError) and that frame's input is dropped up to the next sof.
+// sticky error bit (cleared by reset or clearError) with an errorCauses bit-0 pulse, and that frame's input is
+// dropped up to the next sof. Nothing else is checked: lines of the wrong length and early starts of frame pass
+// through as they come, no errorCauses pulse, no frameAborted pulse (the soak mode's tests rely on that).
 /* verilator lint_off UNUSEDSIGNAL */  // a stand-in: the right image and the high bits of counters are unused
 module IElas #(
   parameter int MAX_W = 128,
@@ -44,7 +46,9 @@ module IElas #(
   output logic [15:0]         io_out_bits_data,
   output logic                io_out_bits_sof,
   output logic                io_out_bits_eol,
-  output logic                io_out_bits_eof
+  output logic                io_out_bits_eof,
+  output logic [4:0]          io_errorCauses,
+  output logic                io_frameAborted
 );
   // (LAT_ROWS+1) whole rows must fit, or the release condition could wait for input that cannot enter.
   localparam int DEPTH = (MAX_LAT_ROWS + 2) * MAX_W;
@@ -99,6 +103,9 @@ module IElas #(
   assign io_out_bits_eof = head[8] && !(fault == 2 && outPixels < int'(io_frameWidth) * int'(io_frameHeight));
   wire outFire = io_out_valid && io_out_ready;
   assign io_error = error;
+  // errorCauses bit 0 (frame size) as the real top; the stub checks nothing else, so it never aborts a frame
+  assign io_errorCauses = {4'b0, sofIn && !sizeOk && io_in_ready};
+  assign io_frameAborted = 1'b0;
 
   always_ff @(posedge clock) begin
     if (reset) begin
