@@ -151,8 +151,9 @@ def run(point, grid_dir, force=False):
     row = {"point": point, "grid": p.grid, "resolution": p.resolution, "config_hash": cfg_hash,
            "generator_hash": gen_hash, "golden_hash": gold_hash, "commit": git_commit(),
            "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M")}
-    for k in ("maxWidth", "maxHeight", "dispMax", "storedDisparities", "windowSize", "supportLanes", "denseLanes"):
+    for k in ("maxWidth", "maxHeight", "dispMax", "storedDisparities", "windowSize"):
         row[k] = conf[k]
+    row["supportLanes"], row["denseLanes"] = conf["supportLanesUsed"], conf["denseLanesUsed"]  # the lanes built
     reasons = []
 
     # 2. elaboration

@@ -186,7 +186,7 @@ class PointRunnerTest(unittest.TestCase):
         for p in grid.quick():
             for pset in grid.PARAMETER_SETS:
                 conf = {"name": p.config_name(pset), "maxWidth": 128, "maxHeight": 64, "dispMax": p.disp_max,
-                        "storedDisparities": p.stored, "windowSize": p.window, "supportLanes": 4, "denseLanes": 25,
+                        "storedDisparities": p.stored, "windowSize": p.window, "supportLanesUsed": 4, "denseLanesUsed": 25,
                         "parameterSet": pset}
                 with open(os.path.join(configs, p.config_name(pset) + ".json"), "w") as fh:
                     json.dump(conf, fh, indent=1)

@@ -39,9 +39,11 @@ object ConfigJson {
     "epsilon" -> p.epsilon,
     "fillC" -> p.fillC,
     "cyclesPerPixel" -> p.cyclesPerPixel,
-    "supportLanes" -> p.supportLanesUsed,
-    "denseLanes" -> p.denseLanesUsed,
+    "supportLanes" -> p.supportLanes,
+    "denseLanes" -> p.denseLanes,
     // derived (read-only for the golden model)
+    "supportLanesUsed" -> p.supportLanesUsed,
+    "denseLanesUsed" -> p.denseLanesUsed,
     "supportThresholdPercent" -> p.supportThresholdPercent,
     "gamma" -> p.gamma,
     "sradius" -> p.sradius,
@@ -75,14 +77,12 @@ object ConfigJson {
     }.mkString("{\n", ",\n", "\n  }")
   }
 
-  /** A preset file (golden/configs/presets/<set>.json): the configuration, with the SAD lanes automatic (0: they
-    * depend on dispMax, which the preset takes from the command line), and the parameters that follow the size.
+  /** A preset file (golden/configs/presets/<set>.json): the configuration (SAD lanes automatic, as in every
+    * preset) and the parameters that follow the size.
     */
-  def presetJson(set: ParameterSet): String = {
-    val base = ElasParams.presetBase(set)
-    val own = Map[String, Any]("supportLanes" -> base.supportLanes, "denseLanes" -> base.denseLanes)
-    renderObject(fields(base).map { case (k, v) => k -> own.getOrElse(k, v) } :+ ("presetFollows" -> Raw(ElasParams.presetFollows.map("\"" + _ + "\"").mkString("[", ", ", "]"))))
-  }
+  def presetJson(set: ParameterSet): String =
+    renderObject(fields(ElasParams.presetBase(set)) :+
+      ("presetFollows" -> Raw(ElasParams.presetFollows.map("\"" + _ + "\"").mkString("[", ", ", "]"))))
 
   private def render(v: Any): String = v match {
     case s: String  => "\"" + s + "\""
@@ -137,7 +137,7 @@ object ConfigJson {
     // Like the named presets, fillC follows dispMax (min(default, dispMax)) unless given.
     val fillC = overrides.get("dispMax").filter(_ => !overrides.contains("fillC") && base.fillC == math.min(ElasParams().fillC, base.dispMax))
       .flatMap(_.toIntOption).map(d => math.min(ElasParams().fillC, d)).getOrElse(base.fillC)
-    val own = Map("name" -> parts(0), "supportLanes" -> base.supportLanes, "denseLanes" -> base.denseLanes, "fillC" -> fillC)
+    val own = Map("name" -> parts(0), "fillC" -> fillC)
     val text = fields(base).filter(f => ctor(f._1)).map { case (k, v0) =>
       val v = own.getOrElse(k, v0)
       val r = overrides.get(k).map(x => if (x.toDoubleOption.isDefined) x else render(x)).getOrElse(render(v))

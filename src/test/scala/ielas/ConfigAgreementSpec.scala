@@ -101,7 +101,8 @@ class ConfigAgreementSpec extends AnyFlatSpec with Matchers {
         "--width", p.maxWidth.toString, "--height", p.maxHeight.toString) ++ sets ++ Seq("--print"): _*)
       withClue(s"${p.name}: $err") { rc shouldBe 0 }
       val loaded = FlatJson.parse(out, s"preset for ${p.name}")
-      val expected = FlatJson.parse(ConfigJson.toJson(p), s"${p.name}.json") -- Seq("name", "legal", "supportLanes", "denseLanes")
+      val expected = FlatJson.parse(ConfigJson.toJson(p), s"${p.name}.json") --
+        Seq("name", "legal", "supportLanes", "denseLanes", "supportLanesUsed", "denseLanesUsed")
       for ((k, v) <- expected) withClue(s"${p.name} from preset ${p.parameterSet.name}: $k: ") { loaded.get(k) shouldBe Some(v) }
     }
   }
