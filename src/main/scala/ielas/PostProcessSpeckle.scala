@@ -119,15 +119,17 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     Mux(finAny(buf) && finTop(buf) === x, finSize(buf), sMem(addr(buf, x)))
 
   // ---- engine counters (row sequence numbers) ----
-  val aNext = RegInit(0.U(seqW.W)); val aBusy = RegInit(false.B)
-  val aBusyN = WireDefault(aBusy); aBusy := aBusyN
-  val aD = new Slot(ND); val a2 = new Slot(2); val a3 = new Slot(3)
-  val aIncW = WireDefault(false.B); val bIncW = WireDefault(false.B); val cIncW = WireDefault(false.B)
-  val dDoneIncW = WireDefault(false.B); val dNextIncW = WireDefault(false.B)
-  def aInc(): Unit = { aNext := aNext + 1.U; aIncW := true.B; aD.inc(); a2.inc(); a3.inc() }
+  val aNext = RegInit(0.U(seqW.W)) // rows that have left A's last step
+  val aBusy = RegInit(false.B) // T is inside a row
+  val aD = new Slot(ND); val a2 = new Slot(2); val a3 = new Slot(3) // A's slots, of the row T takes (tNext)
+  val aIncW = WireDefault(false.B); val tIncW = WireDefault(false.B); val bIncW = WireDefault(false.B)
+  val cIncW = WireDefault(false.B); val dDoneIncW = WireDefault(false.B); val dNextIncW = WireDefault(false.B)
+  def aInc(): Unit = { aNext := aNext + 1.U; aIncW := true.B }
+  def tInc(): Unit = { tIncW := true.B; aD.inc(); a2.inc(); a3.inc() }
   val bNext = RegInit(0.U(seqW.W)); val bBusy = RegInit(false.B)
   val bD = new Slot(ND); val b2 = new Slot(2); val b3 = new Slot(3)
   val cNext = RegInit(0.U(seqW.W)); val cBusy = RegInit(false.B)
+  val c1Last = RegInit(false.B) // C's second step writes the last entry of row cNext
   val cD = new Slot(ND); val c2 = new Slot(2); val c3 = new Slot(3); val cF = new Slot(NF)
   val dDone = RegInit(0.U(seqW.W)) // rows retired by D (left the last chain stage)
   /** x - y of two row counters as a small signed register, updated with their increments: the engines' start
@@ -140,128 +142,205 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dAB = diff(aIncW, bIncW) // aNext - bNext
   val dCB = diff(cIncW, bIncW) // cNext - bNext
   val dCA = diff(cIncW, aIncW) // cNext - aNext
-  val dDA = diff(dDoneIncW, aIncW) // dDone - aNext
+  val dBT = diff(bIncW, tIncW) // bNext - tNext (tNext: rows T has ended)
+  val dCT = diff(cIncW, tIncW) // cNext - tNext
+  val dDT = diff(dDoneIncW, tIncW) // dDone - tNext
   val dDC = diff(dDoneIncW, cIncW) // dDone - cNext
   val dAN = diff(aIncW, dNextIncW) // aNext - dNext
   val dCN = diff(cIncW, dNextIncW) // cNext - dNext
 
-  // ===== A: labelling =====
-  val inFrame = RegInit(false.B) // rows of a frame remain to be labelled
-  val needVirtual = RegInit(false.B) // the frame's last row is labelled; the virtual row comes next
+  // ===== A: labelling, a pipeline T -> A0 -> A1 -> A2 (one pixel per clock) =====
+  // T takes the input beat into registers (no logic on its bits) and does the row's start bookkeeping; A0 finds the
+  // pixel's run (left connection, node id), writes the delay line and the row above, and forms the up pixel's flat
+  // class; A1 reads that class's row-k entries (touched flag, node, sizes); A2 updates the label state (top node and
+  // its size) and writes R, P, S. Only A2 is a recurrence. A's row slots advance when T ends a row and travel with
+  // each pixel; aNext counts rows that have left A2 (what B, C and D wait for).
+  // Row boundary: T takes row k's first pixel once row k - 1's last has left A0 (so that pixel's A1 reads of S_{k-1}
+  // follow A2's last writes of row k - 1), and its second pixel once B works on row k - 1 (or is past it). B and C
+  // start row k - 1 in the cycle its last pixel is in A2 (their reads of what A2 writes come a cycle later). So a row
+  // costs W + 1 clocks when the engines keep up.
+  val inFrame = RegInit(false.B) // rows of a frame remain to be taken
+  val needVirtual = RegInit(false.B) // the frame's last row is taken; the virtual row comes next
   val frameW = Reg(UInt(p.colBits.W)); val frameH = Reg(UInt(p.rowBits.W))
   val aRow = Reg(UInt(p.rowBits.W)) // row in frame of the next / current row
   val aCol = Reg(UInt(p.colBits.W))
-  val aColN = WireDefault(aCol); aCol := aColN
-  val aSeq = aNext
-  val aSlotD = aD.cur
-  val aP = a2.cur
-  val aS = a3.cur; val aSprev = a3.prev
-  val cnt = Reg(UInt((idW + 1).W)) // nodes allocated in this row
-  val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
-  val runId = Reg(UInt(idW.W))
-  val leftVal = Reg(SInt(vW.W))
+  val leftVal = Reg(SInt(vW.W)) // the previous input pixel
 
-  // B (declared here: A reads K_{k-1} while B writes it)
+  /** A's row slots, set by T: delay line and meta (D), R and P (2), S and K (3) and the previous row's S and K. */
+  class ASlots extends Bundle {
+    val d = UInt((log2Ceil(ND) max 1).W); val r = UInt(1.W); val s = UInt(2.W); val sPrev = UInt(2.W)
+  }
+  class A0Beat extends Bundle {
+    val sl = new ASlots
+    val v = SInt(vW.W); val left = SInt(vW.W)
+    val rowStart = Bool(); val lastCol = Bool(); val hasUp = Bool()
+    val col = UInt(p.colBits.W); val pos = UInt((p.colBits + 1).W)
+  }
+  class A1Beat extends Bundle {
+    val sl = new ASlots
+    val rowStart = Bool(); val lastCol = Bool()
+    val valid = Bool(); val newRun = Bool(); val node = UInt(idW.W); val connectU = Bool(); val cls = UInt(idW.W)
+  }
+  class A2Beat extends Bundle {
+    val p = new A1Beat
+    val rv = Bool(); val rn = UInt(idW.W) // R_k flag and node of cls as read in A1
+    val sPrev = UInt(sW.W) // S_{k-1}[cls]
+    val mSize = UInt(sW.W) // S_k[rn], with A2's write-back of that cycle
+    val hitPre = Bool() // the pixel then in A2 had the same class
+    val neNode = Bool() // rn =/= node
+  }
+  val inA0v = RegInit(false.B); val inA0 = Reg(new A0Beat)
+  val inA1v = RegInit(false.B); val inA1 = Reg(new A1Beat)
+  val inA2v = RegInit(false.B); val inA2 = Reg(new A2Beat)
+  /** A2 holds the last pixel of row aNext: B and C may start that row now. */
+  val aLastInA2 = inA2v && inA2.p.lastCol
+
+  // B (declared here: A0 reads K_{k-1} while B writes it)
   val bx = RegInit(0.U((idW + 1).W)) // B's node; 0 whenever B is idle
   val bxN = WireDefault(bx); bx := bxN
-  val bCanStart = !bBusy && dAB >= 1.S && dCB >= -1.S // aNext >= bNext + 1, cNext + 1 >= bNext
+  // row bNext is labelled (aNext >= bNext + 1, or its last pixel is in A2), cNext + 1 >= bNext
+  val bCanStart = !bBusy && (dAB >= 1.S || dAB === 0.S && aLastInA2) && dCB >= -1.S
   val bActive = bBusy || bCanStart
-  val bxEff = bx
   val bComputed = Wire(UInt(idW.W))
 
-  // bStarted >= aSeq, cNext + 1 >= aSeq, dDone + ND >= aSeq + 1
-  val canStartRow = !aBusy && Mux(bActive, dAB <= 1.S, dAB <= 0.S) && dCA >= -1.S && dDA >= (1 - ND).S
+  // ---- T ----
+  // row k = tNext: bNext >= k - 1, cNext + 1 >= k (or C writes its last entry of row k - 2 now), dDone + ND >= k + 1
+  val rowOk = !aBusy && !inA0v && dBT >= -1.S && (dCT >= -1.S || dCT === -2.S && c1Last) && dDT >= (1 - ND).S
+  // B works on row k - 1 or is past it (the second pixel of a row needs K_{k-1}, see A0)
+  val bOnRow = dBT >= 0.S || dBT === -1.S && bActive
   val rowStartNow = !aBusy
   val col = Mux(aBusy, aCol, 0.U)
-  // the up pixel (row aRow - 1) at this column: upRows is a ring of A's pixels by pixel count, so it was written
-  // frameW pixels before this one. Read one cycle ahead at the position A holds next cycle (no write meets it:
-  // frameW > 1); the address is a plain difference of registers, so the read port keeps its address register.
+  val lastCol = col === frameW - 1.U
+  // upRows is a ring of A's pixels by pixel count; the up pixel was written (by A0) frameW > 1 pixels before this
+  // one, so never in the cycle of this read. Read at the take, the word is there when the pixel is in A0.
   val upPos = RegInit(0.U((p.colBits + 1).W)) // pixels taken, mod 2^(colBits + 1) >= 2 maxWidth
-  val upPosN = WireDefault(upPos); upPos := upPosN
-  val upWord = upRows.read(upPosN - frameW)
-  val upVal = upWord(vW + idW - 1, idW).asSInt
-  val upId = upWord(idW - 1, 0)
-  val hasUp = aRow =/= 0.U
-  val inV = io.in.bits.data
-  val valid = inV >= 0.S
-  val connectL = valid && col =/= 0.U && leftVal >= 0.S && similar(inV, leftVal)
-  val connectU = valid && hasUp && upVal >= 0.S && similar(inV, upVal)
-  // K_{k-1}[upId], the flat class: B is flattening row k-1 right now or has finished it (bypass at its position)
-  val bOnPrev = bActive && dAB === 1.S // bNext = aSeq - 1
-  val kBuf = a3.prev
-  val cls = Mux(bOnPrev && upId === bxEff, bComputed, kMem(addr(kBuf, upId)))
-  val kReady = !bOnPrev || upId <= bxEff
-  io.in.ready := inFrame && (aBusy || canStartRow) && (!connectU || kReady)
+  val upWord = upRows.read(upPos - frameW)
+  io.in.ready := inFrame && Mux(aBusy, aCol =/= 1.U || bOnRow, rowOk)
   val take = io.in.fire
 
   // idle between frames: a beat starts a frame (size sampled now, the beat is taken from the next cycle on)
   when(!inFrame && !needVirtual && !aBusy && io.in.valid) {
     inFrame := true.B; frameW := io.frameWidth; frameH := io.frameHeight; aRow := 0.U
   }
-
-  val cntBase = Mux(rowStartNow, 0.U, cnt)
-  val topAnyBase = !rowStartNow && topAny
-  val nodeNow = cntBase(idW - 1, 0)
-  val newRun = valid && !connectL
-  val pushTop = Mux(newRun, nodeNow, top)
-  val thisRun = Mux(newRun, nodeNow, runId)
-  val baseSize = Mux(newRun, 1.U(sW.W), satAdd(topSize, Mux(valid, 1.U, 0.U)))
-  val rv = !rowStartNow && rvRead(aP, cls)
-  val rn = rMem(addr(aP, cls))
-  val touchNew = connectU && !rv
-  val touchOld = connectU && rv && rn =/= pushTop
-  // m's size: in S_k, or in topSize when m is the old top written back by a push this very cycle
-  val mSize = Mux(newRun && topAnyBase && rn === top, topSize, sMem(addr(aS, rn)))
-  val newTop = Mux(touchOld, rn, pushTop)
-  val newSize = Mux(touchNew, satAdd(baseSize, readS(aSprev, cls)), Mux(touchOld, satAdd(baseSize, mSize), baseSize))
-  val lastCol = col === frameW - 1.U
+  inA0v := take
+  inA0.sl.d := aD.cur; inA0.sl.r := a2.cur; inA0.sl.s := a3.cur; inA0.sl.sPrev := a3.prev
+  inA0.v := io.in.bits.data; inA0.left := leftVal; inA0.rowStart := rowStartNow; inA0.lastCol := lastCol
+  inA0.hasUp := aRow =/= 0.U; inA0.col := col; inA0.pos := upPos
   when(take) {
     when(rowStartNow) {
-      aBusyN := true.B
-      metaVirtual(aSlotD) := false.B; metaRow(aSlotD) := aRow; metaW(aSlotD) := frameW; metaH(aSlotD) := frameH
-      finAny(aS) := false.B
+      aBusy := true.B
+      metaVirtual(aD.cur) := false.B; metaRow(aD.cur) := aRow; metaW(aD.cur) := frameW; metaH(aD.cur) := frameH
+      finAny(a3.cur) := false.B
+      for ((r, b) <- rValid.zipWithIndex) when(a2.cur === b.U) { r := 0.U }
     }
-    when(newRun) {
-      cnt := cntBase + 1.U
-      runId := nodeNow
-      when(topAnyBase) { sMem.write(addr(aS, top), topSize) } // the old top stops being the top
-    }.otherwise { cnt := cntBase }
-    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U) {
-      r := Mux(rowStartNow, 0.U, r) | Mux(touchNew, UIntToOH(cls, W), 0.U)
-    }
-    when(touchNew) { rMem.write(addr(aP, cls), pushTop) }
-    when(newRun || touchOld) { pWen := true.B; pWAddr := addr(aP, pushTop); pWData := Mux(touchOld, rn, pushTop) }
-    top := newTop
-    topSize := newSize
-    topAny := topAnyBase || valid
-    delay.write(addr(aSlotD, col), Cat(inV.asUInt, thisRun))
-    upRows.write(upPos, Cat(inV.asUInt, thisRun))
-    upPosN := upPos + 1.U
-    leftVal := inV
-    aColN := col + 1.U
+    upPos := upPos + 1.U
+    leftVal := io.in.bits.data
+    aCol := col + 1.U
     when(lastCol) {
-      aBusyN := false.B
-      aInc()
-      metaN(aSlotD) := Mux(newRun, cntBase + 1.U, cntBase)
-      finAny(aS) := topAnyBase || valid
-      finTop(aS) := newTop
-      finSize(aS) := newSize
+      aBusy := false.B
+      tInc()
       aRow := aRow + 1.U
       when(aRow === frameH - 1.U) { inFrame := false.B; needVirtual := true.B }
     }
   }
-  // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row).
-  when(needVirtual && canStartRow) {
+  // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row). It starts
+  // with A empty and ends at once.
+  when(needVirtual && rowOk && bOnRow && !inA1v && !inA2v) {
     needVirtual := false.B
-    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U) { r := 0.U }
-    metaVirtual(aSlotD) := true.B; metaRow(aSlotD) := frameH; metaW(aSlotD) := frameW; metaH(aSlotD) := frameH
-    metaN(aSlotD) := 0.U
-    finAny(aS) := false.B
+    for ((r, b) <- rValid.zipWithIndex) when(a2.cur === b.U) { r := 0.U }
+    metaVirtual(aD.cur) := true.B; metaRow(aD.cur) := frameH; metaW(aD.cur) := frameW; metaH(aD.cur) := frameH
+    metaN(aD.cur) := 0.U
+    finAny(a3.cur) := false.B
+    tInc()
     aInc()
   }
 
+  // ---- A0: run and node (a recurrence on the input alone), up pixel, up class ----
+  val cnt = Reg(UInt((idW + 1).W)) // nodes allocated in this row
+  val runId = Reg(UInt(idW.W))
+  val a0Valid = inA0.v >= 0.S
+  val connectL = a0Valid && !inA0.rowStart && inA0.left >= 0.S && similar(inA0.v, inA0.left)
+  val newRun = a0Valid && !connectL
+  val cntBase = Mux(inA0.rowStart, 0.U, cnt)
+  val nodeNow = cntBase(idW - 1, 0)
+  val thisRun = Mux(newRun, nodeNow, runId)
+  val upVal = upWord(vW + idW - 1, idW).asSInt
+  val upId = upWord(idW - 1, 0)
+  val connectU = a0Valid && inA0.hasUp && upVal >= 0.S && similar(inA0.v, upVal)
+  // K_{k-1}[upId], the flat class, final: an up node id is at most the column, node 0 is always its own class, and
+  // from the second pixel on B works on row k - 1 (one node per clock, never stalling; T took the second pixel no
+  // earlier than B's first cycle on the row) or is past it: K_{k-1}[upId] is written, or B computes it now (bypass).
+  // While a pixel of row k is in A0, B cannot have started row k, so bActive means B is on row k - 1.
+  val cls = Mux(upId === 0.U, 0.U, Mux(bActive && upId === bx, bComputed, kMem(addr(inA0.sl.sPrev, upId))))
+  when(inA0v) {
+    cnt := cntBase + newRun.asUInt
+    when(newRun) { runId := nodeNow }
+    delay.write(addr(inA0.sl.d, inA0.col), Cat(inA0.v.asUInt, thisRun))
+    upRows.write(inA0.pos, Cat(inA0.v.asUInt, thisRun))
+    when(inA0.lastCol) { metaN(inA0.sl.d) := cntBase + newRun.asUInt }
+  }
+  inA1v := inA0v
+  inA1.sl := inA0.sl
+  inA1.rowStart := inA0.rowStart; inA1.lastCol := inA0.lastCol; inA1.valid := a0Valid; inA1.newRun := newRun
+  inA1.node := nodeNow; inA1.connectU := connectU; inA1.cls := cls
+
+  // ---- A1: the class's row-k entries ----
+  // A2's writes of this same cycle are not in these reads; A2 forwards them (the touched class via hitPre, the old
+  // top's size written back here). Earlier writes are in the memories; R_k's flags were cleared by T at the row start.
+  // The pixel in A2 is the previous one of the same row (a row's first pixel finds A2 empty).
+  val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
+  val rnRaw = rMem(addr(inA1.sl.r, inA1.cls))
+  // A2 writes its old top's size now (a push): S_k[rn] is that size when rn is that top
+  val sFwd = inA2v && inA2.p.newRun && !inA2.p.rowStart && topAny && rnRaw === top
+  inA2v := inA1v
+  inA2.p := inA1
+  inA2.rv := rvRead(inA1.sl.r, inA1.cls)
+  inA2.rn := rnRaw
+  inA2.sPrev := readS(inA1.sl.sPrev, inA1.cls)
+  inA2.mSize := Mux(sFwd, topSize, sMem(addr(inA1.sl.s, rnRaw)))
+  inA2.hitPre := inA2v && inA2.p.cls === inA1.cls
+  inA2.neNode := rnRaw =/= inA1.node
+
+  // ---- A2: label state ----
+  // hitR: the previous pixel touched this class first (its R write is not in A1's read): then rn is that pixel's
+  // pushed top, which is the top now (a first touch never merges).
+  val lastTouchNew = RegInit(false.B)
+  val q = inA2.p
+  val aP = q.sl.r; val aS = q.sl.s
+  val topAnyBase = !q.rowStart && topAny
+  val hitR = inA2.hitPre && lastTouchNew
+  val rv = inA2.rv || hitR
+  val rnIsTop = hitR || inA2.rn === top
+  val rn = Mux(hitR, top, inA2.rn)
+  val pushTop = Mux(q.newRun, q.node, top)
+  val touchNew = q.connectU && !rv
+  // rn =/= pushTop: after a push rn is older than the new node unless it is that node; else rn =/= top
+  val touchOld = q.connectU && rv && Mux(q.newRun, hitR || inA2.neNode, !rnIsTop)
+  // m's size: in S_k, or in topSize when m is the old top written back by a push this very cycle
+  val mSize = Mux(q.newRun && topAnyBase && rnIsTop, topSize, inA2.mSize)
+  val baseSize = Mux(q.newRun, 1.U(sW.W), satAdd(topSize, q.valid.asUInt))
+  val newTop = Mux(touchOld, rn, pushTop)
+  val newSize = Mux(touchNew, satAdd(baseSize, inA2.sPrev), Mux(touchOld, satAdd(baseSize, mSize), baseSize))
+  lastTouchNew := inA2v && touchNew
+  when(inA2v) {
+    when(q.newRun && topAnyBase) { sMem.write(addr(aS, top), topSize) } // the old top stops being the top
+    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U && touchNew) { r := r | UIntToOH(q.cls, W) }
+    when(touchNew) { rMem.write(addr(aP, q.cls), pushTop) }
+    when(q.newRun || touchOld) { pWen := true.B; pWAddr := addr(aP, pushTop); pWData := Mux(touchOld, rn, pushTop) }
+    top := newTop
+    topSize := newSize
+    topAny := topAnyBase || q.valid
+    when(q.lastCol) {
+      aInc()
+      finAny(aS) := topAnyBase || q.valid
+      finTop(aS) := newTop
+      finSize(aS) := newSize
+    }
+  }
+
   // ===== B: flatten P_k into K_k (one node per clock, from the cycle it may start) =====
-  val bSlot = b2.cur
+  // K_k[0] = 0 (node 0 never merges: P_k[0] = 0), so B does not read P_k[0]; it may start while the row's last pixel
+  // is in A2, whose P write is forwarded to the read of node 1 a cycle later.
   val bKslot = b3.cur
   val bN = metaN(bD.cur)
   val bPx = {
@@ -271,36 +350,42 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val hit2 = RegNext(pwEn && pwAddr === next, false.B)
     Mux(hit1, pwData, Mux(hit2, RegNext(pwData), pMem.read(next)))
   }
-  bComputed := Mux(bPx === bxEff(idW - 1, 0), bPx, kMem(addr(bKslot, bPx)))
+  bComputed := Mux(bx === 0.U, 0.U, Mux(bPx === bx(idW - 1, 0), bPx, kMem(addr(bKslot, bPx))))
   when(bActive) {
-    when(bxEff < bN) { kMem.write(addr(bKslot, bxEff(idW - 1, 0)), bComputed) }
-    when(bxEff + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
-      .otherwise { bBusy := true.B; bxN := bxEff + 1.U }
+    when(bx < bN) { kMem.write(addr(bKslot, bx(idW - 1, 0)), bComputed) }
+    when(bx + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
+      .otherwise { bBusy := true.B; bxN := bx + 1.U }
   }
 
-  // ===== C: forward map F_k for the nodes of row k - 1 =====
+  // ===== C: forward map F_k for the nodes of row k - 1, in two steps =====
+  // C0 reads the class of node x (K_{k-1}), C1 its entry (R_k, S_{k-1}) and writes F_k[x]. C may start while row
+  // k's last pixel is in A2 (C1 reads R_k a cycle later). The row ends (cNext, C's slots) when C1 writes the last
+  // entry; C0 starts the next row a clock later.
   val cx = Reg(UInt((idW + 1).W))
   val cFirst = RegInit(true.B) // sequence 0 has no row before it
   val cPrevN = Mux(cFirst, 0.U, metaN(cD.prev))
-  val cKbuf = c3.prev
-  val cRbuf = c2.cur
-  val cSbuf = c3.prev
-  val cFslot = cF.cur
-  // aNext >= cNext + 1, bNext >= cNext, dDone + NF >= cNext + 1
-  val cCanStart = !cBusy && dCA <= -1.S && dCB <= 0.S && dDC >= (1 - NF).S
+  val c1v = RegInit(false.B)
+  val c1x = Reg(UInt(idW.W)); val c1Class = Reg(UInt(idW.W))
+  // row cNext is labelled (aNext >= cNext + 1, or its last pixel is in A2), bNext >= cNext, dDone + NF >= cNext + 1
+  val cCanStart = !cBusy && !c1Last && (dCA <= -1.S || dCA === 0.S && aLastInA2) && dCB <= 0.S && dDC >= (1 - NF).S
   val cActive = cBusy || cCanStart
   val cxEff = Mux(cBusy, cx, 0.U)
-  val cClass = kMem(addr(cKbuf, cxEff(idW - 1, 0)))
-  val cOpen = rvRead(cRbuf, cClass)
-  val cEntry = Mux(cOpen, Cat(0.U(1.W), rMem(addr(cRbuf, cClass)).pad(fW)),
-    Cat(1.U(1.W), readS(cSbuf, cClass).pad(fW)))
+  c1v := cActive && cxEff < cPrevN
+  c1Last := cActive && cxEff + 1.U >= cPrevN
+  c1x := cxEff(idW - 1, 0)
+  c1Class := kMem(addr(c3.prev, cxEff(idW - 1, 0)))
   when(cActive) {
-    when(cxEff < cPrevN) {
-      for ((m, b) <- fMaps.zipWithIndex) when(cFslot === b.U) { m.write(cxEff(idW - 1, 0), cEntry) }
-    }
-    when(cxEff + 1.U >= cPrevN) { cBusy := false.B; cNext := cNext + 1.U; cIncW := true.B; cFirst := false.B; cD.inc(); c2.inc(); c3.inc(); cF.inc() }
-      .otherwise { cBusy := true.B; cx := cxEff + 1.U }
+    when(cxEff + 1.U >= cPrevN) { cBusy := false.B }.otherwise { cBusy := true.B; cx := cxEff + 1.U }
   }
+  val cRbuf = c2.cur
+  val cSbuf = c3.prev
+  val cOpen = rvRead(cRbuf, c1Class)
+  val cEntry = Mux(cOpen, Cat(0.U(1.W), rMem(addr(cRbuf, c1Class)).pad(fW)),
+    Cat(1.U(1.W), readS(cSbuf, c1Class).pad(fW)))
+  when(c1v) {
+    for ((m, b) <- fMaps.zipWithIndex) when(cF.cur === b.U) { m.write(c1x, cEntry) }
+  }
+  when(c1Last) { cNext := cNext + 1.U; cIncW := true.B; cFirst := false.B; cD.inc(); c2.inc(); c3.inc(); cF.inc() }
 
   // ===== D: output chain =====
   class Beat extends Bundle {
