@@ -20,6 +20,7 @@ import chisel3.util._
   *    pointer P_k[top] = m (m < top) and m's saturating size changes. No find() chain is ever followed in A.
   *  - B (flatten) sweeps P_k in increasing id order during row k+1: K_k[x] = x if P_k[x] = x else K_k[P_k[x]]
   *    (P_k[x] < x is already flat). A reads K_k (with a bypass of B's current position) while B writes it.
+  *    K_k[0] = 0 (node 0 never merges), so B starts while row k's last pixel is still in A's last step.
   *  - C (forward map) builds F_k during row k+1: for each row-(k-1) node x, F_k[x] = "open, node R_k[c]" if its
   *    class c = K_{k-1}[x] was touched by row k, else "closed, size S_{k-1}[c]" (final). After a frame's last row
   *    a virtual empty row closes every class.
@@ -32,15 +33,32 @@ import chisel3.util._
   *   F maps       (L + 2) rows x W x (1 + max(idW, sW)), one memory per row, 2 read ports
   *   P, R         2 rows x W x idW each;  K, S  3 rows x W x idW / sW;  R valid flags 2 x W bits (registers)
   *   row above    2^(colBits + 1) x (dispBits + 1 + idW) (A's last pixels again, >= 2 rows)
+  * A is a pipeline of four steps, so that no step follows a chain of lookups (each about 6 LUT levels):
+  *  - T takes the input beat into registers; ready depends on registers only, not on the beat.
+  *  - A0: the left connection, the run's node id and node count (a recurrence on the input alone), the delay line
+  *    and row-above writes, the up pixel's connection and its flat class cls = K_{k-1}[up node] (0 for node 0,
+  *    B's result when B computes that node this cycle, else K); the row's start bookkeeping.
+  *  - A1: cls's row-k entries: touched flag, node rn = R_k[cls], S_{k-1}[cls], S_k[rn].
+  *  - A2: the label state (top node, its size) and the writes of R_k, P_k, S_k; it forwards its own write of the
+  *    cycle in which A1 read (the same class touched first by the previous pixel; the old top's size written back).
+  *  A row's first pixel is taken once the previous row's last pixel has left A0 (its A1 reads of S_{k-1} then follow
+  *  A2's last writes), its second pixel once B works on row k - 1 or is past it (so from the second pixel on, K_{k-1}
+  *  of the up node is written or is B's current node: node ids are at most the column and B does one per clock).
+  *  B and C start a row while its last pixel is in A2, so a row takes W + 1 clocks when the engines keep up (W
+  *  before the pipeline). C works in two steps (the class, then its entry and the map write).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus L + 3 clocks of chain; [[PostProcessSpeckle.latencyRows]] = L + 2 bounds it.
+  * about W nodes), plus L + 3 clocks of chain and A's 3 steps; at W + 1 clocks a row
+  * [[PostProcessSpeckle.latencyRows]] = L + 2 rows of W bounds it for W >= 2 L + 7 (narrower frames stay within
+  * the constant of the spec's bound).
   * Memories: the delay line, the row above, the F maps and P are block RAM (SyncReadMem), each read one cycle ahead
   * at the address its reader holds next cycle (D's row and column, A's pixel count, the beat each chain stage holds
   * next, B's node). The delay line, row above and F map reads never meet a write of the same cycle (D reads rows A
   * has finished, the row above was written frameW > 1 pixels earlier, C writes maps no beat in the chain still
-  * needs); P is written a cycle after A asks, from registers, and forwards that write and the one asked for this cycle (A's last pixel can write node 0 as B starts that row). K, R and S stay combinational
-  * (LUT-RAM): A reads K, R and S in a chain within one clock (the class of the up pixel, its node, that node's
-  * size). Row slots are wrapping counters, not `seq % n`.
+  * needs); P is written a cycle after A asks, from registers, and B's read forwards that write and the one asked
+  * for this cycle (A's last pixels write while B starts that row). K, R and S stay combinational (LUT-RAM), read in
+  * A0 and A1 and by B and C. B, C and D read the per-row metadata from registers one cycle old (written at least
+  * two cycles before a row becomes theirs). Row slots are wrapping counters, not `seq % n`; D's chain beats carry
+  * their map slot one-hot (rotated by one per stage).
   */
 class PostProcessSpeckle(p: ElasParams) extends Module {
   private val L = p.speckleWindowRows
@@ -70,22 +88,29 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   private def similar(a: SInt, b: SInt): Bool = (a - b).abs.asUInt <= T.U
 
   // ---- per-row metadata ring, indexed by row sequence mod ND ----
+  // Written by A0 (N at the row's last pixel, the rest at its first) or at the virtual row's start; B, C and D read
+  // registered copies (one cycle old), which is safe as a row becomes theirs at least two cycles after these writes.
   val metaVirtual = Reg(Vec(ND, Bool()))
-  val metaRow = Reg(Vec(ND, UInt(p.rowBits.W)))
+  val metaFirst = Reg(Vec(ND, Bool())) // row 0 of its frame
+  val metaLast = Reg(Vec(ND, Bool())) // row H - 1 of its frame
+  val metaLen = Reg(Vec(ND, UInt(log2Ceil(L + 2).W))) // D's chain length n (0 for the virtual row)
   val metaW = Reg(Vec(ND, UInt(p.colBits.W)))
-  val metaH = Reg(Vec(ND, UInt(p.rowBits.W)))
   val metaN = Reg(Vec(ND, UInt((idW + 1).W))) // nodes of the row
   /** A row sequence counter's residue mod n as a wrapping register (no `seq % n`): `cur` now, `next` next cycle
-    * (for read addresses issued one cycle ahead), `prev` = (seq - 1) mod n, `plus(i)` = (seq + i) mod n. */
+    * (for read addresses issued one cycle ahead), `prev` = (seq - 1) mod n, `succ` = (seq + 1) mod n. */
   class Slot(n: Int) {
     private val w = log2Ceil(n) max 1
     val cur: UInt = RegInit(0.U(w.W))
     val next: UInt = WireDefault(cur)
     cur := next
-    def wrap(x: UInt): UInt = Mux(x >= n.U, x - n.U, x)(w - 1, 0)
-    def inc(): Unit = next := Mux(cur === (n - 1).U, 0.U, cur + 1.U)
+    /** (cur + 1) mod n, kept as a register */
+    val succ: UInt = RegInit((1 % n).U(w.W))
+    val incW: Bool = WireDefault(false.B)
+    when(incW) { succ := Mux(succ === (n - 1).U, 0.U, succ + 1.U) }
+    def inc(): Unit = { incW := true.B; next := succ }
     def prev: UInt = Mux(cur === 0.U, (n - 1).U, cur - 1.U)
-    def plus(x: UInt, i: Int): UInt = wrap(x +& (i % n).U)
+    /** `v(slot)` one cycle old, of the slot held now: read at the slot held next (this one or its successor). */
+    def regRead[T <: Data](v: Vec[T]): T = RegNext(Mux(incW, v(succ), v(cur)))
   }
 
   // ---- memories ----
@@ -173,8 +198,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   class A0Beat extends Bundle {
     val sl = new ASlots
     val v = SInt(vW.W); val left = SInt(vW.W)
-    val rowStart = Bool(); val lastCol = Bool(); val hasUp = Bool()
-    val col = UInt(p.colBits.W); val pos = UInt((p.colBits + 1).W)
+    val rowStart = Bool(); val lastCol = Bool()
+    val row = UInt(p.rowBits.W); val col = UInt(p.colBits.W); val pos = UInt((p.colBits + 1).W)
   }
   class A1Beat extends Bundle {
     val sl = new ASlots
@@ -225,35 +250,30 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   inA0v := take
   inA0.sl.d := aD.cur; inA0.sl.r := a2.cur; inA0.sl.s := a3.cur; inA0.sl.sPrev := a3.prev
   inA0.v := io.in.bits.data; inA0.left := leftVal; inA0.rowStart := rowStartNow; inA0.lastCol := lastCol
-  inA0.hasUp := aRow =/= 0.U; inA0.col := col; inA0.pos := upPos
+  inA0.row := aRow; inA0.col := col; inA0.pos := upPos
   when(take) {
-    when(rowStartNow) {
-      aBusy := true.B
-      metaVirtual(aD.cur) := false.B; metaRow(aD.cur) := aRow; metaW(aD.cur) := frameW; metaH(aD.cur) := frameH
-      finAny(a3.cur) := false.B
-      for ((r, b) <- rValid.zipWithIndex) when(a2.cur === b.U) { r := 0.U }
-    }
+    when(rowStartNow) { aBusy := true.B }
     upPos := upPos + 1.U
     leftVal := io.in.bits.data
     aCol := col + 1.U
     when(lastCol) {
       aBusy := false.B
-      tInc()
       aRow := aRow + 1.U
       when(aRow === frameH - 1.U) { inFrame := false.B; needVirtual := true.B }
     }
   }
   // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row). It starts
-  // with A empty and ends at once.
-  when(needVirtual && rowOk && bOnRow && !inA1v && !inA2v) {
+  // with A empty and counts as labelled a cycle later (after its meta writes, for B's and D's registered copies).
+  val virtualStart = needVirtual && rowOk && bOnRow && !inA1v && !inA2v
+  when(virtualStart) {
     needVirtual := false.B
     for ((r, b) <- rValid.zipWithIndex) when(a2.cur === b.U) { r := 0.U }
-    metaVirtual(aD.cur) := true.B; metaRow(aD.cur) := frameH; metaW(aD.cur) := frameW; metaH(aD.cur) := frameH
-    metaN(aD.cur) := 0.U
+    metaVirtual(aD.cur) := true.B; metaFirst(aD.cur) := false.B; metaLast(aD.cur) := false.B
+    metaLen(aD.cur) := 0.U; metaW(aD.cur) := frameW; metaN(aD.cur) := 0.U
     finAny(a3.cur) := false.B
     tInc()
-    aInc()
   }
+  when(RegNext(virtualStart, false.B)) { aInc() }
 
   // ---- A0: run and node (a recurrence on the input alone), up pixel, up class ----
   val cnt = Reg(UInt((idW + 1).W)) // nodes allocated in this row
@@ -266,12 +286,21 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val thisRun = Mux(newRun, nodeNow, runId)
   val upVal = upWord(vW + idW - 1, idW).asSInt
   val upId = upWord(idW - 1, 0)
-  val connectU = a0Valid && inA0.hasUp && upVal >= 0.S && similar(inA0.v, upVal)
+  val connectU = a0Valid && inA0.row =/= 0.U && upVal >= 0.S && similar(inA0.v, upVal)
   // K_{k-1}[upId], the flat class, final: an up node id is at most the column, node 0 is always its own class, and
   // from the second pixel on B works on row k - 1 (one node per clock, never stalling; T took the second pixel no
   // earlier than B's first cycle on the row) or is past it: K_{k-1}[upId] is written, or B computes it now (bypass).
   // While a pixel of row k is in A0, B cannot have started row k, so bActive means B is on row k - 1.
   val cls = Mux(upId === 0.U, 0.U, Mux(bActive && upId === bx, bComputed, kMem(addr(inA0.sl.sPrev, upId))))
+  // the row's start bookkeeping (a cycle after T; A1 reads R_k's flags a cycle later)
+  when(inA0v && inA0.rowStart) {
+    val d = inA0.sl.d
+    metaVirtual(d) := false.B; metaFirst(d) := inA0.row === 0.U; metaLast(d) := inA0.row === frameH - 1.U
+    metaLen(d) := Mux(inA0.row +& (L - 1).U < frameH - 1.U, (L - 1).U, frameH - inA0.row); metaW(d) := frameW
+    finAny(inA0.sl.s) := false.B
+    for ((r, b) <- rValid.zipWithIndex) when(inA0.sl.r === b.U) { r := 0.U }
+  }
+  when(inA0v && inA0.lastCol) { tInc() } // T's slots: the next row's (T starts it once A0 is empty)
   when(inA0v) {
     cnt := cntBase + newRun.asUInt
     when(newRun) { runId := nodeNow }
@@ -317,10 +346,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // rn =/= pushTop: after a push rn is older than the new node unless it is that node; else rn =/= top
   val touchOld = q.connectU && rv && Mux(q.newRun, hitR || inA2.neNode, !rnIsTop)
   // m's size: in S_k, or in topSize when m is the old top written back by a push this very cycle
-  val mSize = Mux(q.newRun && topAnyBase && rnIsTop, topSize, inA2.mSize)
-  val baseSize = Mux(q.newRun, 1.U(sW.W), satAdd(topSize, q.valid.asUInt))
+  val mIsTop = q.newRun && topAnyBase && rnIsTop
   val newTop = Mux(touchOld, rn, pushTop)
-  val newSize = Mux(touchNew, satAdd(baseSize, inA2.sPrev), Mux(touchOld, satAdd(baseSize, mSize), baseSize))
+  // The new size, base + the touched class's or m's size (base = 1 after a push, else topSize + valid), as one
+  // saturating sum min(cap, a + b + valid): nested saturation of non-negative terms is the same (sizes <= cap).
+  val sumA = Mux(!q.newRun || touchOld && mIsTop, topSize, 0.U)
+  val sumB = Mux(touchNew, inA2.sPrev, Mux(touchOld && !mIsTop, inA2.mSize, 0.U))
+  val newSize = satAdd(sumA +& sumB, q.valid.asUInt)
   lastTouchNew := inA2v && touchNew
   when(inA2v) {
     when(q.newRun && topAnyBase) { sMem.write(addr(aS, top), topSize) } // the old top stops being the top
@@ -342,7 +374,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // K_k[0] = 0 (node 0 never merges: P_k[0] = 0), so B does not read P_k[0]; it may start while the row's last pixel
   // is in A2, whose P write is forwarded to the read of node 1 a cycle later.
   val bKslot = b3.cur
-  val bN = metaN(bD.cur)
+  val bN = bD.regRead(metaN)
   val bPx = {
     val next = addr(b2.next, bxN(idW - 1, 0))
     // forwarded: the request of this cycle and the one being written (neither is in the word read)
@@ -363,7 +395,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // entry; C0 starts the next row a clock later.
   val cx = Reg(UInt((idW + 1).W))
   val cFirst = RegInit(true.B) // sequence 0 has no row before it
-  val cPrevN = Mux(cFirst, 0.U, metaN(cD.prev))
+  val cPrevN = RegNext(Mux(cIncW, metaN(cD.cur), Mux(cFirst, 0.U, metaN(cD.prev))), 0.U) // N of row cNext - 1
   val c1v = RegInit(false.B)
   val c1x = Reg(UInt(idW.W)); val c1Class = Reg(UInt(idW.W))
   // row cNext is labelled (aNext >= cNext + 1, or its last pixel is in A2), bNext >= cNext, dDone + NF >= cNext + 1
@@ -389,7 +421,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // ===== D: output chain =====
   class Beat extends Bundle {
-    val fslot = UInt((log2Ceil(NF) max 1).W) // (row sequence) mod NF
+    val tgt = UInt(NF.W) // one-hot: the map slot of the next lookup, (row sequence + stage + 1) mod NF
     val value = SInt(vW.W)
     val closed = Bool()
     val ptr = UInt(fW.W)
@@ -414,23 +446,22 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dColN = WireDefault(dCol); dCol := dColN
   val dD = new Slot(ND); val dF = new Slot(NF)
   val dSlot = dD.cur
-  val dVirt = metaVirtual(dSlot)
-  val dRowV = metaRow(dSlot); val dH = metaH(dSlot); val dWd = metaW(dSlot)
-  val dLen = Mux(dRowV +& (L - 1).U < dH - 1.U, (L - 1).U, dH - dRowV)
-  val dReady = dAN >= 1.S && Mux(dVirt, true.B, dCN >= (dLen +& 1.U).zext) // aNext >= dNext + 1, cNext >= dNext + n + 1
+  val dVirt = dD.regRead(metaVirtual); val dFirst = dD.regRead(metaFirst); val dLast = dD.regRead(metaLast)
+  val dLen = dD.regRead(metaLen); val dWd = dD.regRead(metaW)
+  val dReady = dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext) // aNext >= dNext + 1, cNext >= dNext + n + 1
   val word = delay.read(addr(dD.next, dColN)) // one cycle ahead: the row and column D holds next cycle
   val issue = dReady && advance
   val s0 = Wire(Valid(new Beat))
   s0.valid := issue
-  s0.bits.fslot := dF.cur
+  s0.bits.tgt := UIntToOH(dF.succ, NF)
   s0.bits.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
   s0.bits.closed := false.B
   s0.bits.ptr := word(idW - 1, 0)
-  s0.bits.n := Mux(dVirt, 0.U, dLen)
-  s0.bits.sof := !dVirt && dRowV === 0.U && dCol === 0.U
+  s0.bits.n := dLen
+  s0.bits.sof := !dVirt && dFirst && dCol === 0.U
   s0.bits.eol := !dVirt && dCol === dWd - 1.U
-  s0.bits.eof := !dVirt && dCol === dWd - 1.U && dRowV === dH - 1.U
-  s0.bits.lastRow := dRowV === dH - 1.U
+  s0.bits.eof := !dVirt && dCol === dWd - 1.U && dLast
+  s0.bits.lastRow := dLast
   s0.bits.cols := dWd
   s0.bits.virt := dVirt
   when(issue) {
@@ -438,15 +469,16 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
   // stage i (1..L) applies F_{seq + i} when i <= n. The maps are read one cycle ahead: each port's address comes
   // from the beats the stages hold next cycle (stagesNext), so a stage's lookup reads the data of its own beat.
-  private def target(i: Int, b: Beat): UInt = dF.plus(b.fslot, i)
+  private def target(b: Beat, k: Int): Bool = b.tgt(k)
   private def applies(i: Int, b: Beat): Bool = b.value >= 0.S && !b.closed && i.U <= b.n
   private val portData: Seq[Seq[UInt]] = Seq.fill(NF)(Seq.fill(2)(Wire(UInt((1 + fW).W))))
   private def lookup(i: Int, b: Beat): Beat = {
     val r = Wire(new Beat)
     r := b
     val apply = applies(i, b)
-    val e = Mux1H(fMaps.indices.map(k => target(i, b) === k.U), portData.map(_(i % 2)))
+    val e = Mux1H(fMaps.indices.map(k => target(b, k)), portData.map(_(i % 2)))
     when(apply) { r.closed := e(fW); r.ptr := e(fW - 1, 0) }
+    r.tgt := (if (NF > 1) Cat(b.tgt(NF - 2, 0), b.tgt(NF - 1)) else b.tgt) // the next stage's map: one slot on
     r
   }
   val stagesNext: Seq[Valid[Beat]] = (0 to L).map { i =>
@@ -462,7 +494,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
   for ((m, b) <- fMaps.zipWithIndex; q <- 0 until 2) {
     val users = (1 to L).filter(_ % 2 == q)
-    val sel = users.map(i => stagesNext(i - 1).valid && applies(i, stagesNext(i - 1).bits) && target(i, stagesNext(i - 1).bits) === b.U)
+    val sel = users.map(i => stagesNext(i - 1).valid && applies(i, stagesNext(i - 1).bits) && target(stagesNext(i - 1).bits, b))
     val address = if (users.isEmpty) 0.U else PriorityMux(sel :+ true.B, users.map(i => stagesNext(i - 1).bits.ptr(idW - 1, 0)) :+ 0.U)
     portData(b)(q) := (if (users.isEmpty) 0.U else m.read(address))
   }
