@@ -95,6 +95,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val metaLast = Reg(Vec(ND, Bool())) // row H - 1 of its frame
   val metaLen = Reg(Vec(ND, UInt(log2Ceil(L + 2).W))) // D's chain length n (0 for the virtual row)
   val metaW = Reg(Vec(ND, UInt(p.colBits.W)))
+  val metaWm1 = Reg(Vec(ND, UInt(p.colBits.W))) // W - 1
   val metaN = Reg(Vec(ND, UInt((idW + 1).W))) // nodes of the row
   /** A row sequence counter's residue mod n as a wrapping register (no `seq % n`): `cur` now, `next` next cycle
     * (for read addresses issued one cycle ahead), `prev` = (seq - 1) mod n, `succ` = (seq + 1) mod n. */
@@ -107,10 +108,15 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val succ: UInt = RegInit((1 % n).U(w.W))
     val incW: Bool = WireDefault(false.B)
     when(incW) { succ := Mux(succ === (n - 1).U, 0.U, succ + 1.U) }
+    /** (cur - 1) mod n, kept as a register */
+    val prev: UInt = RegInit((n - 1).U(w.W))
+    when(incW) { prev := cur }
     def inc(): Unit = { incW := true.B; next := succ }
-    def prev: UInt = Mux(cur === 0.U, (n - 1).U, cur - 1.U)
     /** `v(slot)` one cycle old, of the slot held now: read at the slot held next (this one or its successor). */
     def regRead[T <: Data](v: Vec[T]): T = RegNext(Mux(incW, v(succ), v(cur)))
+    /** The same value, from two registers (of this slot and of its successor) and the last cycle's increment: the
+      * multiplexer is after the registers, off the path from the increment. */
+    def regRead2[T <: Data](v: Vec[T]): T = Mux(RegNext(incW, false.B), RegNext(v(succ)), RegNext(v(cur)))
   }
 
   // ---- memories ----
@@ -134,7 +140,22 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val sMem = Mem(3 * W, UInt(sW.W))
   val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
   // one bit of each buffer, then the buffer (not a 2 x maxWidth-bit mux before the bit select)
-  private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, rValid(1)(idx), rValid(0)(idx))
+  private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, bitAt(rValid(1), idx), bitAt(rValid(0), idx))
+  /** Bit idx of v as a tree of 4:1 multiplexers (two index bits per LUT level). */
+  private def bitAt(v: UInt, idx: UInt): Bool = {
+    var level: Seq[Bool] = v.asBools
+    var lo = 0
+    while (level.size > 1) {
+      val k = if (level.size > 2 && lo + 1 < idx.getWidth) 2 else 1
+      level = level.grouped(1 << k).map { g =>
+        val x = g.padTo(1 << k, false.B)
+        if (k == 1) Mux(idx(lo), x(1), x(0))
+        else Mux(idx(lo + 1), Mux(idx(lo), x(3), x(2)), Mux(idx(lo), x(1), x(0)))
+      }.toSeq
+      lo += k
+    }
+    level.head
+  }
   // The last top node of a finished row and its size (not written back to sMem), per S buffer.
   val finTop = Reg(Vec(3, UInt(idW.W)))
   val finSize = Reg(Vec(3, UInt(sW.W)))
@@ -199,7 +220,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val sl = new ASlots
     val v = SInt(vW.W); val left = SInt(vW.W)
     val rowStart = Bool(); val lastCol = Bool()
-    val row = UInt(p.rowBits.W); val col = UInt(p.colBits.W); val pos = UInt((p.colBits + 1).W)
+    val row = UInt(p.rowBits.W); val hasUp = Bool(); val col = UInt(p.colBits.W); val pos = UInt((p.colBits + 1).W)
   }
   class A1Beat extends Bundle {
     val sl = new ASlots
@@ -213,6 +234,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val mSize = UInt(sW.W) // S_k[rn], with A2's write-back of that cycle
     val hitPre = Bool() // the pixel then in A2 had the same class
     val neNode = Bool() // rn =/= node
+    val eqT = Bool(); val eqN = Bool(); val eqR = Bool() // rn equals the pixel then in A2's top, node, rn
+    val sPrev1 = UInt(sW.W); val mSize1 = UInt(sW.W) // satAdd(1, S_{k-1}[cls]), satAdd(1, S_k[rn])
   }
   val inA0v = RegInit(false.B); val inA0 = Reg(new A0Beat)
   val inA1v = RegInit(false.B); val inA1 = Reg(new A1Beat)
@@ -250,7 +273,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   inA0v := take
   inA0.sl.d := aD.cur; inA0.sl.r := a2.cur; inA0.sl.s := a3.cur; inA0.sl.sPrev := a3.prev
   inA0.v := io.in.bits.data; inA0.left := leftVal; inA0.rowStart := rowStartNow; inA0.lastCol := lastCol
-  inA0.row := aRow; inA0.col := col; inA0.pos := upPos
+  inA0.row := aRow; inA0.hasUp := aRow =/= 0.U; inA0.col := col; inA0.pos := upPos
   when(take) {
     when(rowStartNow) { aBusy := true.B }
     upPos := upPos + 1.U
@@ -269,7 +292,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     needVirtual := false.B
     for ((r, b) <- rValid.zipWithIndex) when(a2.cur === b.U) { r := 0.U }
     metaVirtual(aD.cur) := true.B; metaFirst(aD.cur) := false.B; metaLast(aD.cur) := false.B
-    metaLen(aD.cur) := 0.U; metaW(aD.cur) := frameW; metaN(aD.cur) := 0.U
+    metaLen(aD.cur) := 0.U; metaW(aD.cur) := frameW; metaWm1(aD.cur) := frameW - 1.U
+    metaN(aD.cur) := 0.U
     finAny(a3.cur) := false.B
     tInc()
   }
@@ -286,7 +310,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val thisRun = Mux(newRun, nodeNow, runId)
   val upVal = upWord(vW + idW - 1, idW).asSInt
   val upId = upWord(idW - 1, 0)
-  val connectU = a0Valid && inA0.row =/= 0.U && upVal >= 0.S && similar(inA0.v, upVal)
+  val connectU = a0Valid && inA0.hasUp && upVal >= 0.S && similar(inA0.v, upVal)
   // K_{k-1}[upId], the flat class, final: an up node id is at most the column, node 0 is always its own class, and
   // from the second pixel on B works on row k - 1 (one node per clock, never stalling; T took the second pixel no
   // earlier than B's first cycle on the row) or is past it: K_{k-1}[upId] is written, or B computes it now (bypass).
@@ -296,7 +320,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   when(inA0v && inA0.rowStart) {
     val d = inA0.sl.d
     metaVirtual(d) := false.B; metaFirst(d) := inA0.row === 0.U; metaLast(d) := inA0.row === frameH - 1.U
-    metaLen(d) := Mux(inA0.row +& (L - 1).U < frameH - 1.U, (L - 1).U, frameH - inA0.row); metaW(d) := frameW
+    metaLen(d) := Mux(inA0.row +& (L - 1).U < frameH - 1.U, (L - 1).U, frameH - inA0.row)
+    metaW(d) := frameW; metaWm1(d) := frameW - 1.U
     finAny(inA0.sl.s) := false.B
     for ((r, b) <- rValid.zipWithIndex) when(inA0.sl.r === b.U) { r := 0.U }
   }
@@ -325,8 +350,14 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   inA2.p := inA1
   inA2.rv := rvRead(inA1.sl.r, inA1.cls)
   inA2.rn := rnRaw
-  inA2.sPrev := readS(inA1.sl.sPrev, inA1.cls)
-  inA2.mSize := Mux(sFwd, topSize, sMem(addr(inA1.sl.s, rnRaw)))
+  val sPrevVal = readS(inA1.sl.sPrev, inA1.cls)
+  val mSizeVal = Mux(sFwd, topSize, sMem(addr(inA1.sl.s, rnRaw)))
+  inA2.sPrev := sPrevVal
+  inA2.mSize := mSizeVal
+  inA2.sPrev1 := satAdd(1.U(sW.W), sPrevVal)
+  inA2.mSize1 := satAdd(1.U(sW.W), mSizeVal)
+  // the next top is one of the current top, the node of the pixel in A2 or its rn: compare rn with each now
+  inA2.eqT := rnRaw === top; inA2.eqN := rnRaw === inA2.p.node; inA2.eqR := rnRaw === inA2.rn
   inA2.hitPre := inA2v && inA2.p.cls === inA1.cls
   inA2.neNode := rnRaw =/= inA1.node
 
@@ -339,7 +370,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val topAnyBase = !q.rowStart && topAny
   val hitR = inA2.hitPre && lastTouchNew
   val rv = inA2.rv || hitR
-  val rnIsTop = hitR || inA2.rn === top
+  // where the top came from in the previous cycle (T: kept, N: the pushed node, R: that pixel's rn)
+  val topFrom = RegInit(0.U(2.W))
+  val rnIsTop = hitR || Mux1H(Seq(topFrom === 0.U, topFrom === 1.U, topFrom === 2.U), Seq(inA2.eqT, inA2.eqN, inA2.eqR))
   val rn = Mux(hitR, top, inA2.rn)
   val pushTop = Mux(q.newRun, q.node, top)
   val touchNew = q.connectU && !rv
@@ -350,9 +383,14 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val newTop = Mux(touchOld, rn, pushTop)
   // The new size, base + the touched class's or m's size (base = 1 after a push, else topSize + valid), as one
   // saturating sum min(cap, a + b + valid): nested saturation of non-negative terms is the same (sizes <= cap).
-  val sumA = Mux(!q.newRun || touchOld && mIsTop, topSize, 0.U)
-  val sumB = Mux(touchNew, inA2.sPrev, Mux(touchOld && !mIsTop, inA2.mSize, 0.U))
-  val newSize = satAdd(sumA +& sumB, q.valid.asUInt)
+  // The new size: base (1 after a push, else satAdd(topSize, valid)) plus the touched class's or m's size,
+  // saturated; without a push as one sum min(cap, topSize + size + valid), the same value. The sums with topSize
+  // are formed beside the decision, which only selects.
+  val v = q.valid.asUInt
+  val newSize = Mux(q.newRun,
+    Mux(touchNew, inA2.sPrev1, Mux(touchOld, Mux(mIsTop, satAdd(topSize, v), inA2.mSize1), 1.U(sW.W))),
+    Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, satAdd(topSize +& inA2.mSize, v), satAdd(topSize, v))))
+  topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
   lastTouchNew := inA2v && touchNew
   when(inA2v) {
     when(q.newRun && topAnyBase) { sMem.write(addr(aS, top), topSize) } // the old top stops being the top
@@ -374,7 +412,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // K_k[0] = 0 (node 0 never merges: P_k[0] = 0), so B does not read P_k[0]; it may start while the row's last pixel
   // is in A2, whose P write is forwarded to the read of node 1 a cycle later.
   val bKslot = b3.cur
-  val bN = bD.regRead(metaN)
+  val bN = bD.regRead2(metaN)
   val bPx = {
     val next = addr(b2.next, bxN(idW - 1, 0))
     // forwarded: the request of this cycle and the one being written (neither is in the word read)
@@ -447,7 +485,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dD = new Slot(ND); val dF = new Slot(NF)
   val dSlot = dD.cur
   val dVirt = dD.regRead(metaVirtual); val dFirst = dD.regRead(metaFirst); val dLast = dD.regRead(metaLast)
-  val dLen = dD.regRead(metaLen); val dWd = dD.regRead(metaW)
+  val dLen = dD.regRead(metaLen); val dWd = dD.regRead(metaW); val dWm1 = dD.regRead(metaWm1)
   val dReady = dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext) // aNext >= dNext + 1, cNext >= dNext + n + 1
   val word = delay.read(addr(dD.next, dColN)) // one cycle ahead: the row and column D holds next cycle
   val issue = dReady && advance
@@ -459,13 +497,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   s0.bits.ptr := word(idW - 1, 0)
   s0.bits.n := dLen
   s0.bits.sof := !dVirt && dFirst && dCol === 0.U
-  s0.bits.eol := !dVirt && dCol === dWd - 1.U
-  s0.bits.eof := !dVirt && dCol === dWd - 1.U && dLast
+  s0.bits.eol := !dVirt && dCol === dWm1
+  s0.bits.eof := !dVirt && dCol === dWm1 && dLast
   s0.bits.lastRow := dLast
   s0.bits.cols := dWd
   s0.bits.virt := dVirt
   when(issue) {
-    when(dVirt || dCol === dWd - 1.U) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
+    when(dVirt || dCol === dWm1) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
   }
   // stage i (1..L) applies F_{seq + i} when i <= n. The maps are read one cycle ahead: each port's address comes
   // from the beats the stages hold next cycle (stagesNext), so a stage's lookup reads the data of its own beat.
