@@ -160,7 +160,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val finTop = Reg(Vec(3, UInt(idW.W)))
   val finSize = Reg(Vec(3, UInt(sW.W)))
   val finAny = RegInit(VecInit(Seq.fill(3)(false.B)))
-  private def addr(slot: UInt, x: UInt): UInt = slot * W.U + x
+  /** Entry x (< W) of row slot `slot`: a concatenation when W is a power of 2. */
+  private def addr(slot: UInt, x: UInt): UInt =
+    if (isPow2(W)) Cat(slot, x(log2Ceil(W) - 1, 0)) else slot * W.U + x
   private def readS(buf: UInt, x: UInt): UInt =
     Mux(finAny(buf) && finTop(buf) === x, finSize(buf), sMem(addr(buf, x)))
 
@@ -235,7 +237,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val hitPre = Bool() // the pixel then in A2 had the same class
     val neNode = Bool() // rn =/= node
     val eqT = Bool(); val eqN = Bool(); val eqR = Bool() // rn equals the pixel then in A2's top, node, rn
-    val sPrev1 = UInt(sW.W); val mSize1 = UInt(sW.W) // satAdd(1, S_{k-1}[cls]), satAdd(1, S_k[rn])
   }
   val inA0v = RegInit(false.B); val inA0 = Reg(new A0Beat)
   val inA1v = RegInit(false.B); val inA1 = Reg(new A1Beat)
@@ -287,7 +288,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
   // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row). It starts
   // with A empty and counts as labelled a cycle later (after its meta writes, for B's and D's registered copies).
-  val virtualStart = needVirtual && rowOk && bOnRow && !inA1v && !inA2v
+  // Its condition is taken a cycle old: once true it stays true while the frame's last row drains (no pixel comes).
+  val virtualStart = needVirtual && RegNext(rowOk && bOnRow && !inA1v && !inA2v, false.B)
   when(virtualStart) {
     needVirtual := false.B
     for ((r, b) <- rValid.zipWithIndex) when(a2.cur === b.U) { r := 0.U }
@@ -354,8 +356,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val mSizeVal = Mux(sFwd, topSize, sMem(addr(inA1.sl.s, rnRaw)))
   inA2.sPrev := sPrevVal
   inA2.mSize := mSizeVal
-  inA2.sPrev1 := satAdd(1.U(sW.W), sPrevVal)
-  inA2.mSize1 := satAdd(1.U(sW.W), mSizeVal)
   // the next top is one of the current top, the node of the pixel in A2 or its rn: compare rn with each now
   inA2.eqT := rnRaw === top; inA2.eqN := rnRaw === inA2.p.node; inA2.eqR := rnRaw === inA2.rn
   inA2.hitPre := inA2v && inA2.p.cls === inA1.cls
@@ -388,7 +388,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // are formed beside the decision, which only selects.
   val v = q.valid.asUInt
   val newSize = Mux(q.newRun,
-    Mux(touchNew, inA2.sPrev1, Mux(touchOld, Mux(mIsTop, satAdd(topSize, v), inA2.mSize1), 1.U(sW.W))),
+    Mux(touchNew, satAdd(1.U(sW.W), inA2.sPrev), Mux(touchOld, Mux(mIsTop, satAdd(topSize, v), satAdd(1.U(sW.W), inA2.mSize)), 1.U(sW.W))),
     Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, satAdd(topSize +& inA2.mSize, v), satAdd(topSize, v))))
   topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
   lastTouchNew := inA2v && touchNew
