@@ -572,7 +572,7 @@ object PostProcessSpeckle {
         "(L + 2) rows x maxWidth forward maps; one SyncReadMem per row, 2 read ports (block RAM)"),
       MemoryUse("Speckle", "P", 2 * w, idW, "merge parents (2 rows); SyncReadMem 1R1W (block RAM), read by B"),
       MemoryUse("Speckle", "K/R", (3 + 2) * w, idW,
-        "flat classes (3 rows), class -> node (2); Mem (LUT-RAM): A reads them in a chain within a clock"),
+        "flat classes (3 rows), class -> node (2); Mem (LUT-RAM), read combinationally (A0, A1, B, C)"),
       MemoryUse("Speckle", "S", 3 * w, sW, "saturating segment sizes, 3 rows; Mem (LUT-RAM)"),
       MemoryUse("Speckle", "Rvalid", 2, w, "touched-class flags (registers)"))
   }
