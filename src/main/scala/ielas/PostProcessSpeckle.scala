@@ -129,7 +129,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // read ports per slot suffice: even stages on port 0, odd stages on port 1.
   val fMaps = Seq.fill(NF)(SyncReadMem(W, UInt((1 + fW).W)))
   // P: written by A, read by B only, at B's next node (one cycle ahead; block RAM). A's write of a node B reads next
-  // cycle (node 0 of the row just labelled, written by its last pixel) is forwarded.
+  // cycle (A2's last pixels of the row B has just started) is forwarded.
   val pMem = SyncReadMem(2 * W, UInt(idW.W))
   val pWen = WireDefault(false.B); val pWAddr = WireDefault(0.U(16.W)); val pWData = WireDefault(0.U(idW.W))
   // the write reaches the memory a cycle later, from registers (A's labelling logic stays off the RAM's address pins)
