@@ -20,6 +20,7 @@ import chisel3.util._
   *    pointer P_k[top] = m (m < top) and m's saturating size changes. No find() chain is ever followed in A.
   *  - B (flatten) sweeps P_k in increasing id order during row k+1: K_k[x] = x if P_k[x] = x else K_k[P_k[x]]
   *    (P_k[x] < x is already flat). A reads K_k (with a bypass of B's current position) while B writes it.
+  *    K_k[0] = 0 (node 0 never merges), so B starts while row k's last pixel is still in A's last step.
   *  - C (forward map) builds F_k during row k+1: for each row-(k-1) node x, F_k[x] = "open, node R_k[c]" if its
   *    class c = K_{k-1}[x] was touched by row k, else "closed, size S_{k-1}[c]" (final). After a frame's last row
   *    a virtual empty row closes every class.
@@ -32,15 +33,32 @@ import chisel3.util._
   *   F maps       (L + 2) rows x W x (1 + max(idW, sW)), one memory per row, 2 read ports
   *   P, R         2 rows x W x idW each;  K, S  3 rows x W x idW / sW;  R valid flags 2 x W bits (registers)
   *   row above    2^(colBits + 1) x (dispBits + 1 + idW) (A's last pixels again, >= 2 rows)
+  * A is a pipeline of four steps, so that no step follows a chain of lookups (each about 6 LUT levels):
+  *  - T takes the input beat into registers; ready depends on registers only, not on the beat.
+  *  - A0: the left connection, the run's node id and node count (a recurrence on the input alone), the delay line
+  *    and row-above writes, the up pixel's connection and its flat class cls = K_{k-1}[up node] (0 for node 0,
+  *    B's result when B computes that node this cycle, else K); the row's start bookkeeping.
+  *  - A1: cls's row-k entries: touched flag, node rn = R_k[cls], S_{k-1}[cls], S_k[rn].
+  *  - A2: the label state (top node, its size) and the writes of R_k, P_k, S_k; it forwards its own write of the
+  *    cycle in which A1 read (the same class touched first by the previous pixel; the old top's size written back).
+  *  A row's first pixel is taken once the previous row's last pixel has left A0 (its A1 reads of S_{k-1} then follow
+  *  A2's last writes), its second pixel once B works on row k - 1 or is past it (so from the second pixel on, K_{k-1}
+  *  of the up node is written or is B's current node: node ids are at most the column and B does one per clock).
+  *  B and C start a row while its last pixel is in A2, so a row takes W + 1 clocks when the engines keep up (W
+  *  before the pipeline). C works in two steps (the class, then its entry and the map write).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus L + 3 clocks of chain; [[PostProcessSpeckle.latencyRows]] = L + 2 bounds it.
+  * about W nodes), plus L + 3 clocks of chain and A's 3 steps; at W + 1 clocks a row
+  * [[PostProcessSpeckle.latencyRows]] = L + 2 rows of W bounds it for W >= 2 L + 7 (narrower frames stay within
+  * the constant of the spec's bound).
   * Memories: the delay line, the row above, the F maps and P are block RAM (SyncReadMem), each read one cycle ahead
   * at the address its reader holds next cycle (D's row and column, A's pixel count, the beat each chain stage holds
   * next, B's node). The delay line, row above and F map reads never meet a write of the same cycle (D reads rows A
   * has finished, the row above was written frameW > 1 pixels earlier, C writes maps no beat in the chain still
-  * needs); P is written a cycle after A asks, from registers, and forwards that write and the one asked for this cycle (A's last pixel can write node 0 as B starts that row). K, R and S stay combinational
-  * (LUT-RAM): A reads K, R and S in a chain within one clock (the class of the up pixel, its node, that node's
-  * size). Row slots are wrapping counters, not `seq % n`.
+  * needs); P is written a cycle after A asks, from registers, and B's read forwards that write and the one asked
+  * for this cycle (A's last pixels write while B starts that row). K, R and S stay combinational (LUT-RAM), read in
+  * A0 and A1 and by B and C. B, C and D read the per-row metadata from registers one cycle old (written at least
+  * two cycles before a row becomes theirs). Row slots are wrapping counters, not `seq % n`; D's chain beats carry
+  * their map slot one-hot (rotated by one per stage).
   */
 class PostProcessSpeckle(p: ElasParams) extends Module {
   private val L = p.speckleWindowRows
@@ -70,22 +88,35 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   private def similar(a: SInt, b: SInt): Bool = (a - b).abs.asUInt <= T.U
 
   // ---- per-row metadata ring, indexed by row sequence mod ND ----
+  // Written by A0 (N at the row's last pixel, the rest at its first) or at the virtual row's start; B, C and D read
+  // registered copies (one cycle old), which is safe as a row becomes theirs at least two cycles after these writes.
   val metaVirtual = Reg(Vec(ND, Bool()))
-  val metaRow = Reg(Vec(ND, UInt(p.rowBits.W)))
+  val metaFirst = Reg(Vec(ND, Bool())) // row 0 of its frame
+  val metaLast = Reg(Vec(ND, Bool())) // row H - 1 of its frame
+  val metaLen = Reg(Vec(ND, UInt(log2Ceil(L + 2).W))) // D's chain length n (0 for the virtual row)
   val metaW = Reg(Vec(ND, UInt(p.colBits.W)))
-  val metaH = Reg(Vec(ND, UInt(p.rowBits.W)))
+  val metaWm1 = Reg(Vec(ND, UInt(p.colBits.W))) // W - 1
   val metaN = Reg(Vec(ND, UInt((idW + 1).W))) // nodes of the row
   /** A row sequence counter's residue mod n as a wrapping register (no `seq % n`): `cur` now, `next` next cycle
-    * (for read addresses issued one cycle ahead), `prev` = (seq - 1) mod n, `plus(i)` = (seq + i) mod n. */
+    * (for read addresses issued one cycle ahead), `prev` = (seq - 1) mod n, `succ` = (seq + 1) mod n. */
   class Slot(n: Int) {
     private val w = log2Ceil(n) max 1
     val cur: UInt = RegInit(0.U(w.W))
     val next: UInt = WireDefault(cur)
     cur := next
-    def wrap(x: UInt): UInt = Mux(x >= n.U, x - n.U, x)(w - 1, 0)
-    def inc(): Unit = next := Mux(cur === (n - 1).U, 0.U, cur + 1.U)
-    def prev: UInt = Mux(cur === 0.U, (n - 1).U, cur - 1.U)
-    def plus(x: UInt, i: Int): UInt = wrap(x +& (i % n).U)
+    /** (cur + 1) mod n, kept as a register */
+    val succ: UInt = RegInit((1 % n).U(w.W))
+    val incW: Bool = WireDefault(false.B)
+    when(incW) { succ := Mux(succ === (n - 1).U, 0.U, succ + 1.U) }
+    /** (cur - 1) mod n, kept as a register */
+    val prev: UInt = RegInit((n - 1).U(w.W))
+    when(incW) { prev := cur }
+    def inc(): Unit = { incW := true.B; next := succ }
+    /** `v(slot)` one cycle old, of the slot held now: read at the slot held next (this one or its successor). */
+    def regRead[T <: Data](v: Vec[T]): T = RegNext(Mux(incW, v(succ), v(cur)))
+    /** The same value, from two registers (of this slot and of its successor) and the last cycle's increment: the
+      * multiplexer is after the registers, off the path from the increment. */
+    def regRead2[T <: Data](v: Vec[T]): T = Mux(RegNext(incW, false.B), RegNext(v(succ)), RegNext(v(cur)))
   }
 
   // ---- memories ----
@@ -98,7 +129,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // read ports per slot suffice: even stages on port 0, odd stages on port 1.
   val fMaps = Seq.fill(NF)(SyncReadMem(W, UInt((1 + fW).W)))
   // P: written by A, read by B only, at B's next node (one cycle ahead; block RAM). A's write of a node B reads next
-  // cycle (node 0 of the row just labelled, written by its last pixel) is forwarded.
+  // cycle (A2's last pixels of the row B has just started) is forwarded.
   val pMem = SyncReadMem(2 * W, UInt(idW.W))
   val pWen = WireDefault(false.B); val pWAddr = WireDefault(0.U(16.W)); val pWData = WireDefault(0.U(idW.W))
   // the write reaches the memory a cycle later, from registers (A's labelling logic stays off the RAM's address pins)
@@ -109,25 +140,44 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val sMem = Mem(3 * W, UInt(sW.W))
   val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
   // one bit of each buffer, then the buffer (not a 2 x maxWidth-bit mux before the bit select)
-  private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, rValid(1)(idx), rValid(0)(idx))
+  private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, bitAt(rValid(1), idx), bitAt(rValid(0), idx))
+  /** Bit idx of v as a tree of 4:1 multiplexers (two index bits per LUT level). */
+  private def bitAt(v: UInt, idx: UInt): Bool = {
+    var level: Seq[Bool] = v.asBools
+    var lo = 0
+    while (level.size > 1) {
+      val k = if (level.size > 2 && lo + 1 < idx.getWidth) 2 else 1
+      level = level.grouped(1 << k).map { g =>
+        val x = g.padTo(1 << k, false.B)
+        if (k == 1) Mux(idx(lo), x(1), x(0))
+        else Mux(idx(lo + 1), Mux(idx(lo), x(3), x(2)), Mux(idx(lo), x(1), x(0)))
+      }.toSeq
+      lo += k
+    }
+    level.head
+  }
   // The last top node of a finished row and its size (not written back to sMem), per S buffer.
   val finTop = Reg(Vec(3, UInt(idW.W)))
   val finSize = Reg(Vec(3, UInt(sW.W)))
   val finAny = RegInit(VecInit(Seq.fill(3)(false.B)))
-  private def addr(slot: UInt, x: UInt): UInt = slot * W.U + x
+  /** Entry x (< W) of row slot `slot`: a concatenation when W is a power of 2. */
+  private def addr(slot: UInt, x: UInt): UInt =
+    if (isPow2(W)) Cat(slot, x(log2Ceil(W) - 1, 0)) else slot * W.U + x
   private def readS(buf: UInt, x: UInt): UInt =
     Mux(finAny(buf) && finTop(buf) === x, finSize(buf), sMem(addr(buf, x)))
 
   // ---- engine counters (row sequence numbers) ----
-  val aNext = RegInit(0.U(seqW.W)); val aBusy = RegInit(false.B)
-  val aBusyN = WireDefault(aBusy); aBusy := aBusyN
-  val aD = new Slot(ND); val a2 = new Slot(2); val a3 = new Slot(3)
-  val aIncW = WireDefault(false.B); val bIncW = WireDefault(false.B); val cIncW = WireDefault(false.B)
-  val dDoneIncW = WireDefault(false.B); val dNextIncW = WireDefault(false.B)
-  def aInc(): Unit = { aNext := aNext + 1.U; aIncW := true.B; aD.inc(); a2.inc(); a3.inc() }
+  val aNext = RegInit(0.U(seqW.W)) // rows that have left A's last step
+  val aBusy = RegInit(false.B) // T is inside a row
+  val aD = new Slot(ND); val a2 = new Slot(2); val a3 = new Slot(3) // A's slots, of the row T takes (tNext)
+  val aIncW = WireDefault(false.B); val tIncW = WireDefault(false.B); val bIncW = WireDefault(false.B)
+  val cIncW = WireDefault(false.B); val dDoneIncW = WireDefault(false.B); val dNextIncW = WireDefault(false.B)
+  def aInc(): Unit = { aNext := aNext + 1.U; aIncW := true.B }
+  def tInc(): Unit = { tIncW := true.B; aD.inc(); a2.inc(); a3.inc() }
   val bNext = RegInit(0.U(seqW.W)); val bBusy = RegInit(false.B)
   val bD = new Slot(ND); val b2 = new Slot(2); val b3 = new Slot(3)
   val cNext = RegInit(0.U(seqW.W)); val cBusy = RegInit(false.B)
+  val c1Last = RegInit(false.B) // C's second step writes the last entry of row cNext
   val cD = new Slot(ND); val c2 = new Slot(2); val c3 = new Slot(3); val cF = new Slot(NF)
   val dDone = RegInit(0.U(seqW.W)) // rows retired by D (left the last chain stage)
   /** x - y of two row counters as a small signed register, updated with their increments: the engines' start
@@ -140,130 +190,229 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dAB = diff(aIncW, bIncW) // aNext - bNext
   val dCB = diff(cIncW, bIncW) // cNext - bNext
   val dCA = diff(cIncW, aIncW) // cNext - aNext
-  val dDA = diff(dDoneIncW, aIncW) // dDone - aNext
+  val dBT = diff(bIncW, tIncW) // bNext - tNext (tNext: rows T has ended)
+  val dCT = diff(cIncW, tIncW) // cNext - tNext
+  val dDT = diff(dDoneIncW, tIncW) // dDone - tNext
   val dDC = diff(dDoneIncW, cIncW) // dDone - cNext
   val dAN = diff(aIncW, dNextIncW) // aNext - dNext
   val dCN = diff(cIncW, dNextIncW) // cNext - dNext
 
-  // ===== A: labelling =====
-  val inFrame = RegInit(false.B) // rows of a frame remain to be labelled
-  val needVirtual = RegInit(false.B) // the frame's last row is labelled; the virtual row comes next
+  // ===== A: labelling, a pipeline T -> A0 -> A1 -> A2 (one pixel per clock) =====
+  // T takes the input beat into registers (no logic on its bits) and does the row's start bookkeeping; A0 finds the
+  // pixel's run (left connection, node id), writes the delay line and the row above, and forms the up pixel's flat
+  // class; A1 reads that class's row-k entries (touched flag, node, sizes); A2 updates the label state (top node and
+  // its size) and writes R, P, S. Only A2 is a recurrence. A's row slots advance when T ends a row and travel with
+  // each pixel; aNext counts rows that have left A2 (what B, C and D wait for).
+  // Row boundary: T takes row k's first pixel once row k - 1's last has left A0 (so that pixel's A1 reads of S_{k-1}
+  // follow A2's last writes of row k - 1), and its second pixel once B works on row k - 1 (or is past it). B and C
+  // start row k - 1 in the cycle its last pixel is in A2 (their reads of what A2 writes come a cycle later). So a row
+  // costs W + 1 clocks when the engines keep up.
+  val inFrame = RegInit(false.B) // rows of a frame remain to be taken
+  val needVirtual = RegInit(false.B) // the frame's last row is taken; the virtual row comes next
   val frameW = Reg(UInt(p.colBits.W)); val frameH = Reg(UInt(p.rowBits.W))
   val aRow = Reg(UInt(p.rowBits.W)) // row in frame of the next / current row
   val aCol = Reg(UInt(p.colBits.W))
-  val aColN = WireDefault(aCol); aCol := aColN
-  val aSeq = aNext
-  val aSlotD = aD.cur
-  val aP = a2.cur
-  val aS = a3.cur; val aSprev = a3.prev
-  val cnt = Reg(UInt((idW + 1).W)) // nodes allocated in this row
-  val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
-  val runId = Reg(UInt(idW.W))
-  val leftVal = Reg(SInt(vW.W))
+  val leftVal = Reg(SInt(vW.W)) // the previous input pixel
 
-  // B (declared here: A reads K_{k-1} while B writes it)
+  /** A's row slots, set by T: delay line and meta (D), R and P (2), S and K (3) and the previous row's S and K. */
+  class ASlots extends Bundle {
+    val d = UInt((log2Ceil(ND) max 1).W); val r = UInt(1.W); val s = UInt(2.W); val sPrev = UInt(2.W)
+  }
+  class A0Beat extends Bundle {
+    val sl = new ASlots
+    val v = SInt(vW.W); val left = SInt(vW.W)
+    val rowStart = Bool(); val lastCol = Bool()
+    val row = UInt(p.rowBits.W); val hasUp = Bool(); val col = UInt(p.colBits.W); val pos = UInt((p.colBits + 1).W)
+  }
+  class A1Beat extends Bundle {
+    val sl = new ASlots
+    val rowStart = Bool(); val lastCol = Bool()
+    val valid = Bool(); val newRun = Bool(); val node = UInt(idW.W); val connectU = Bool(); val cls = UInt(idW.W)
+  }
+  class A2Beat extends Bundle {
+    val p = new A1Beat
+    val rv = Bool(); val rn = UInt(idW.W) // R_k flag and node of cls as read in A1
+    val sPrev = UInt(sW.W) // S_{k-1}[cls]
+    val mSize = UInt(sW.W) // S_k[rn], with A2's write-back of that cycle
+    val hitPre = Bool() // the pixel then in A2 had the same class
+    val neNode = Bool() // rn =/= node
+    val eqT = Bool(); val eqN = Bool(); val eqR = Bool() // rn equals the pixel then in A2's top, node, rn
+  }
+  val inA0v = RegInit(false.B); val inA0 = Reg(new A0Beat)
+  val inA1v = RegInit(false.B); val inA1 = Reg(new A1Beat)
+  val inA2v = RegInit(false.B); val inA2 = Reg(new A2Beat)
+  /** A2 holds the last pixel of row aNext: B and C may start that row now. */
+  val aLastInA2 = inA2v && inA2.p.lastCol
+
+  // B (declared here: A0 reads K_{k-1} while B writes it)
   val bx = RegInit(0.U((idW + 1).W)) // B's node; 0 whenever B is idle
   val bxN = WireDefault(bx); bx := bxN
-  val bCanStart = !bBusy && dAB >= 1.S && dCB >= -1.S // aNext >= bNext + 1, cNext + 1 >= bNext
+  // row bNext is labelled (aNext >= bNext + 1, or its last pixel is in A2), cNext + 1 >= bNext
+  val bCanStart = !bBusy && (dAB >= 1.S || dAB === 0.S && aLastInA2) && dCB >= -1.S
   val bActive = bBusy || bCanStart
-  val bxEff = bx
   val bComputed = Wire(UInt(idW.W))
 
-  // bStarted >= aSeq, cNext + 1 >= aSeq, dDone + ND >= aSeq + 1
-  val canStartRow = !aBusy && Mux(bActive, dAB <= 1.S, dAB <= 0.S) && dCA >= -1.S && dDA >= (1 - ND).S
+  // ---- T ----
+  // row k = tNext: bNext >= k - 1, cNext + 1 >= k (or C writes its last entry of row k - 2 now), dDone + ND >= k + 1
+  val rowOk = !aBusy && !inA0v && dBT >= -1.S && (dCT >= -1.S || dCT === -2.S && c1Last) && dDT >= (1 - ND).S
+  // B works on row k - 1 or is past it (the second pixel of a row needs K_{k-1}, see A0)
+  val bOnRow = dBT >= 0.S || dBT === -1.S && bActive
   val rowStartNow = !aBusy
   val col = Mux(aBusy, aCol, 0.U)
-  // the up pixel (row aRow - 1) at this column: upRows is a ring of A's pixels by pixel count, so it was written
-  // frameW pixels before this one. Read one cycle ahead at the position A holds next cycle (no write meets it:
-  // frameW > 1); the address is a plain difference of registers, so the read port keeps its address register.
+  val lastCol = col === frameW - 1.U
+  // upRows is a ring of A's pixels by pixel count; the up pixel was written (by A0) frameW > 1 pixels before this
+  // one, so never in the cycle of this read. Read at the take, the word is there when the pixel is in A0.
   val upPos = RegInit(0.U((p.colBits + 1).W)) // pixels taken, mod 2^(colBits + 1) >= 2 maxWidth
-  val upPosN = WireDefault(upPos); upPos := upPosN
-  val upWord = upRows.read(upPosN - frameW)
-  val upVal = upWord(vW + idW - 1, idW).asSInt
-  val upId = upWord(idW - 1, 0)
-  val hasUp = aRow =/= 0.U
-  val inV = io.in.bits.data
-  val valid = inV >= 0.S
-  val connectL = valid && col =/= 0.U && leftVal >= 0.S && similar(inV, leftVal)
-  val connectU = valid && hasUp && upVal >= 0.S && similar(inV, upVal)
-  // K_{k-1}[upId], the flat class: B is flattening row k-1 right now or has finished it (bypass at its position)
-  val bOnPrev = bActive && dAB === 1.S // bNext = aSeq - 1
-  val kBuf = a3.prev
-  val cls = Mux(bOnPrev && upId === bxEff, bComputed, kMem(addr(kBuf, upId)))
-  val kReady = !bOnPrev || upId <= bxEff
-  io.in.ready := inFrame && (aBusy || canStartRow) && (!connectU || kReady)
+  val upWord = upRows.read(upPos - frameW)
+  io.in.ready := inFrame && Mux(aBusy, aCol =/= 1.U || bOnRow, rowOk)
   val take = io.in.fire
 
   // idle between frames: a beat starts a frame (size sampled now, the beat is taken from the next cycle on)
   when(!inFrame && !needVirtual && !aBusy && io.in.valid) {
     inFrame := true.B; frameW := io.frameWidth; frameH := io.frameHeight; aRow := 0.U
   }
-
-  val cntBase = Mux(rowStartNow, 0.U, cnt)
-  val topAnyBase = !rowStartNow && topAny
-  val nodeNow = cntBase(idW - 1, 0)
-  val newRun = valid && !connectL
-  val pushTop = Mux(newRun, nodeNow, top)
-  val thisRun = Mux(newRun, nodeNow, runId)
-  val baseSize = Mux(newRun, 1.U(sW.W), satAdd(topSize, Mux(valid, 1.U, 0.U)))
-  val rv = !rowStartNow && rvRead(aP, cls)
-  val rn = rMem(addr(aP, cls))
-  val touchNew = connectU && !rv
-  val touchOld = connectU && rv && rn =/= pushTop
-  // m's size: in S_k, or in topSize when m is the old top written back by a push this very cycle
-  val mSize = Mux(newRun && topAnyBase && rn === top, topSize, sMem(addr(aS, rn)))
-  val newTop = Mux(touchOld, rn, pushTop)
-  val newSize = Mux(touchNew, satAdd(baseSize, readS(aSprev, cls)), Mux(touchOld, satAdd(baseSize, mSize), baseSize))
-  val lastCol = col === frameW - 1.U
+  inA0v := take
+  inA0.sl.d := aD.cur; inA0.sl.r := a2.cur; inA0.sl.s := a3.cur; inA0.sl.sPrev := a3.prev
+  inA0.v := io.in.bits.data; inA0.left := leftVal; inA0.rowStart := rowStartNow; inA0.lastCol := lastCol
+  inA0.row := aRow; inA0.hasUp := aRow =/= 0.U; inA0.col := col; inA0.pos := upPos
   when(take) {
-    when(rowStartNow) {
-      aBusyN := true.B
-      metaVirtual(aSlotD) := false.B; metaRow(aSlotD) := aRow; metaW(aSlotD) := frameW; metaH(aSlotD) := frameH
-      finAny(aS) := false.B
-    }
-    when(newRun) {
-      cnt := cntBase + 1.U
-      runId := nodeNow
-      when(topAnyBase) { sMem.write(addr(aS, top), topSize) } // the old top stops being the top
-    }.otherwise { cnt := cntBase }
-    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U) {
-      r := Mux(rowStartNow, 0.U, r) | Mux(touchNew, UIntToOH(cls, W), 0.U)
-    }
-    when(touchNew) { rMem.write(addr(aP, cls), pushTop) }
-    when(newRun || touchOld) { pWen := true.B; pWAddr := addr(aP, pushTop); pWData := Mux(touchOld, rn, pushTop) }
-    top := newTop
-    topSize := newSize
-    topAny := topAnyBase || valid
-    delay.write(addr(aSlotD, col), Cat(inV.asUInt, thisRun))
-    upRows.write(upPos, Cat(inV.asUInt, thisRun))
-    upPosN := upPos + 1.U
-    leftVal := inV
-    aColN := col + 1.U
+    when(rowStartNow) { aBusy := true.B }
+    upPos := upPos + 1.U
+    leftVal := io.in.bits.data
+    aCol := col + 1.U
     when(lastCol) {
-      aBusyN := false.B
-      aInc()
-      metaN(aSlotD) := Mux(newRun, cntBase + 1.U, cntBase)
-      finAny(aS) := topAnyBase || valid
-      finTop(aS) := newTop
-      finSize(aS) := newSize
+      aBusy := false.B
       aRow := aRow + 1.U
       when(aRow === frameH - 1.U) { inFrame := false.B; needVirtual := true.B }
     }
   }
-  // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row).
-  when(needVirtual && canStartRow) {
+  // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row). It starts
+  // with A empty and counts as labelled a cycle later (after its meta writes, for B's and D's registered copies).
+  // Its condition is taken a cycle old: once true it stays true while the frame's last row drains (no pixel comes).
+  val virtualStart = needVirtual && RegNext(rowOk && bOnRow && !inA1v && !inA2v, false.B)
+  when(virtualStart) {
     needVirtual := false.B
-    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U) { r := 0.U }
-    metaVirtual(aSlotD) := true.B; metaRow(aSlotD) := frameH; metaW(aSlotD) := frameW; metaH(aSlotD) := frameH
-    metaN(aSlotD) := 0.U
-    finAny(aS) := false.B
-    aInc()
+    for ((r, b) <- rValid.zipWithIndex) when(a2.cur === b.U) { r := 0.U }
+    metaVirtual(aD.cur) := true.B; metaFirst(aD.cur) := false.B; metaLast(aD.cur) := false.B
+    metaLen(aD.cur) := 0.U; metaW(aD.cur) := frameW; metaWm1(aD.cur) := frameW - 1.U
+    metaN(aD.cur) := 0.U
+    finAny(a3.cur) := false.B
+    tInc()
+  }
+  when(RegNext(virtualStart, false.B)) { aInc() }
+
+  // ---- A0: run and node (a recurrence on the input alone), up pixel, up class ----
+  val cnt = Reg(UInt((idW + 1).W)) // nodes allocated in this row
+  val runId = Reg(UInt(idW.W))
+  val a0Valid = inA0.v >= 0.S
+  val connectL = a0Valid && !inA0.rowStart && inA0.left >= 0.S && similar(inA0.v, inA0.left)
+  val newRun = a0Valid && !connectL
+  val cntBase = Mux(inA0.rowStart, 0.U, cnt)
+  val nodeNow = cntBase(idW - 1, 0)
+  val thisRun = Mux(newRun, nodeNow, runId)
+  val upVal = upWord(vW + idW - 1, idW).asSInt
+  val upId = upWord(idW - 1, 0)
+  val connectU = a0Valid && inA0.hasUp && upVal >= 0.S && similar(inA0.v, upVal)
+  // K_{k-1}[upId], the flat class, final: an up node id is at most the column, node 0 is always its own class, and
+  // from the second pixel on B works on row k - 1 (one node per clock, never stalling; T took the second pixel no
+  // earlier than B's first cycle on the row) or is past it: K_{k-1}[upId] is written, or B computes it now (bypass).
+  // While a pixel of row k is in A0, B cannot have started row k, so bActive means B is on row k - 1.
+  val cls = Mux(upId === 0.U, 0.U, Mux(bActive && upId === bx, bComputed, kMem(addr(inA0.sl.sPrev, upId))))
+  // the row's start bookkeeping (a cycle after T; A1 reads R_k's flags a cycle later)
+  when(inA0v && inA0.rowStart) {
+    val d = inA0.sl.d
+    metaVirtual(d) := false.B; metaFirst(d) := inA0.row === 0.U; metaLast(d) := inA0.row === frameH - 1.U
+    metaLen(d) := Mux(inA0.row +& (L - 1).U < frameH - 1.U, (L - 1).U, frameH - inA0.row)
+    metaW(d) := frameW; metaWm1(d) := frameW - 1.U
+    finAny(inA0.sl.s) := false.B
+    for ((r, b) <- rValid.zipWithIndex) when(inA0.sl.r === b.U) { r := 0.U }
+  }
+  when(inA0v && inA0.lastCol) { tInc() } // T's slots: the next row's (T starts it once A0 is empty)
+  when(inA0v) {
+    cnt := cntBase + newRun.asUInt
+    when(newRun) { runId := nodeNow }
+    delay.write(addr(inA0.sl.d, inA0.col), Cat(inA0.v.asUInt, thisRun))
+    upRows.write(inA0.pos, Cat(inA0.v.asUInt, thisRun))
+    when(inA0.lastCol) { metaN(inA0.sl.d) := cntBase + newRun.asUInt }
+  }
+  inA1v := inA0v
+  inA1.sl := inA0.sl
+  inA1.rowStart := inA0.rowStart; inA1.lastCol := inA0.lastCol; inA1.valid := a0Valid; inA1.newRun := newRun
+  inA1.node := nodeNow; inA1.connectU := connectU; inA1.cls := cls
+
+  // ---- A1: the class's row-k entries ----
+  // A2's writes of this same cycle are not in these reads; A2 forwards them (the touched class via hitPre, the old
+  // top's size written back here). Earlier writes are in the memories; R_k's flags were cleared by T at the row start.
+  // The pixel in A2 is the previous one of the same row (a row's first pixel finds A2 empty).
+  val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
+  val rnRaw = rMem(addr(inA1.sl.r, inA1.cls))
+  // A2 writes its old top's size now (a push): S_k[rn] is that size when rn is that top
+  val sFwd = inA2v && inA2.p.newRun && !inA2.p.rowStart && topAny && rnRaw === top
+  inA2v := inA1v
+  inA2.p := inA1
+  inA2.rv := rvRead(inA1.sl.r, inA1.cls)
+  inA2.rn := rnRaw
+  val sPrevVal = readS(inA1.sl.sPrev, inA1.cls)
+  val mSizeVal = Mux(sFwd, topSize, sMem(addr(inA1.sl.s, rnRaw)))
+  inA2.sPrev := sPrevVal
+  inA2.mSize := mSizeVal
+  // the next top is one of the current top, the node of the pixel in A2 or its rn: compare rn with each now
+  inA2.eqT := rnRaw === top; inA2.eqN := rnRaw === inA2.p.node; inA2.eqR := rnRaw === inA2.rn
+  inA2.hitPre := inA2v && inA2.p.cls === inA1.cls
+  inA2.neNode := rnRaw =/= inA1.node
+
+  // ---- A2: label state ----
+  // hitR: the previous pixel touched this class first (its R write is not in A1's read): then rn is that pixel's
+  // pushed top, which is the top now (a first touch never merges).
+  val lastTouchNew = RegInit(false.B)
+  val q = inA2.p
+  val aP = q.sl.r; val aS = q.sl.s
+  val topAnyBase = !q.rowStart && topAny
+  val hitR = inA2.hitPre && lastTouchNew
+  val rv = inA2.rv || hitR
+  // where the top came from in the previous cycle (T: kept, N: the pushed node, R: that pixel's rn)
+  val topFrom = RegInit(0.U(2.W))
+  val rnIsTop = hitR || Mux1H(Seq(topFrom === 0.U, topFrom === 1.U, topFrom === 2.U), Seq(inA2.eqT, inA2.eqN, inA2.eqR))
+  val rn = Mux(hitR, top, inA2.rn)
+  val pushTop = Mux(q.newRun, q.node, top)
+  val touchNew = q.connectU && !rv
+  // rn =/= pushTop: after a push rn is older than the new node unless it is that node; else rn =/= top
+  val touchOld = q.connectU && rv && Mux(q.newRun, hitR || inA2.neNode, !rnIsTop)
+  // m's size: in S_k, or in topSize when m is the old top written back by a push this very cycle
+  val mIsTop = q.newRun && topAnyBase && rnIsTop
+  val newTop = Mux(touchOld, rn, pushTop)
+  // The new size, base + the touched class's or m's size (base = 1 after a push, else topSize + valid), as one
+  // saturating sum min(cap, a + b + valid): nested saturation of non-negative terms is the same (sizes <= cap).
+  // The new size: base (1 after a push, else satAdd(topSize, valid)) plus the touched class's or m's size,
+  // saturated; without a push as one sum min(cap, topSize + size + valid), the same value. The sums with topSize
+  // are formed beside the decision, which only selects.
+  val v = q.valid.asUInt
+  val newSize = Mux(q.newRun,
+    Mux(touchNew, satAdd(1.U(sW.W), inA2.sPrev), Mux(touchOld, Mux(mIsTop, satAdd(topSize, v), satAdd(1.U(sW.W), inA2.mSize)), 1.U(sW.W))),
+    Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, satAdd(topSize +& inA2.mSize, v), satAdd(topSize, v))))
+  topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
+  lastTouchNew := inA2v && touchNew
+  when(inA2v) {
+    when(q.newRun && topAnyBase) { sMem.write(addr(aS, top), topSize) } // the old top stops being the top
+    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U && touchNew) { r := r | UIntToOH(q.cls, W) }
+    when(touchNew) { rMem.write(addr(aP, q.cls), pushTop) }
+    when(q.newRun || touchOld) { pWen := true.B; pWAddr := addr(aP, pushTop); pWData := Mux(touchOld, rn, pushTop) }
+    top := newTop
+    topSize := newSize
+    topAny := topAnyBase || q.valid
+    when(q.lastCol) {
+      aInc()
+      finAny(aS) := topAnyBase || q.valid
+      finTop(aS) := newTop
+      finSize(aS) := newSize
+    }
   }
 
   // ===== B: flatten P_k into K_k (one node per clock, from the cycle it may start) =====
-  val bSlot = b2.cur
+  // K_k[0] = 0 (node 0 never merges: P_k[0] = 0), so B does not read P_k[0]; it may start while the row's last pixel
+  // is in A2, whose P write is forwarded to the read of node 1 a cycle later.
   val bKslot = b3.cur
-  val bN = metaN(bD.cur)
+  val bN = bD.regRead2(metaN)
   val bPx = {
     val next = addr(b2.next, bxN(idW - 1, 0))
     // forwarded: the request of this cycle and the one being written (neither is in the word read)
@@ -271,40 +420,46 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val hit2 = RegNext(pwEn && pwAddr === next, false.B)
     Mux(hit1, pwData, Mux(hit2, RegNext(pwData), pMem.read(next)))
   }
-  bComputed := Mux(bPx === bxEff(idW - 1, 0), bPx, kMem(addr(bKslot, bPx)))
+  bComputed := Mux(bx === 0.U, 0.U, Mux(bPx === bx(idW - 1, 0), bPx, kMem(addr(bKslot, bPx))))
   when(bActive) {
-    when(bxEff < bN) { kMem.write(addr(bKslot, bxEff(idW - 1, 0)), bComputed) }
-    when(bxEff + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
-      .otherwise { bBusy := true.B; bxN := bxEff + 1.U }
+    when(bx < bN) { kMem.write(addr(bKslot, bx(idW - 1, 0)), bComputed) }
+    when(bx + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
+      .otherwise { bBusy := true.B; bxN := bx + 1.U }
   }
 
-  // ===== C: forward map F_k for the nodes of row k - 1 =====
+  // ===== C: forward map F_k for the nodes of row k - 1, in two steps =====
+  // C0 reads the class of node x (K_{k-1}), C1 its entry (R_k, S_{k-1}) and writes F_k[x]. C may start while row
+  // k's last pixel is in A2 (C1 reads R_k a cycle later). The row ends (cNext, C's slots) when C1 writes the last
+  // entry; C0 starts the next row a clock later.
   val cx = Reg(UInt((idW + 1).W))
   val cFirst = RegInit(true.B) // sequence 0 has no row before it
-  val cPrevN = Mux(cFirst, 0.U, metaN(cD.prev))
-  val cKbuf = c3.prev
-  val cRbuf = c2.cur
-  val cSbuf = c3.prev
-  val cFslot = cF.cur
-  // aNext >= cNext + 1, bNext >= cNext, dDone + NF >= cNext + 1
-  val cCanStart = !cBusy && dCA <= -1.S && dCB <= 0.S && dDC >= (1 - NF).S
+  val cPrevN = RegNext(Mux(cIncW, metaN(cD.cur), Mux(cFirst, 0.U, metaN(cD.prev))), 0.U) // N of row cNext - 1
+  val c1v = RegInit(false.B)
+  val c1x = Reg(UInt(idW.W)); val c1Class = Reg(UInt(idW.W))
+  // row cNext is labelled (aNext >= cNext + 1, or its last pixel is in A2), bNext >= cNext, dDone + NF >= cNext + 1
+  val cCanStart = !cBusy && !c1Last && (dCA <= -1.S || dCA === 0.S && aLastInA2) && dCB <= 0.S && dDC >= (1 - NF).S
   val cActive = cBusy || cCanStart
   val cxEff = Mux(cBusy, cx, 0.U)
-  val cClass = kMem(addr(cKbuf, cxEff(idW - 1, 0)))
-  val cOpen = rvRead(cRbuf, cClass)
-  val cEntry = Mux(cOpen, Cat(0.U(1.W), rMem(addr(cRbuf, cClass)).pad(fW)),
-    Cat(1.U(1.W), readS(cSbuf, cClass).pad(fW)))
+  c1v := cActive && cxEff < cPrevN
+  c1Last := cActive && cxEff + 1.U >= cPrevN
+  c1x := cxEff(idW - 1, 0)
+  c1Class := kMem(addr(c3.prev, cxEff(idW - 1, 0)))
   when(cActive) {
-    when(cxEff < cPrevN) {
-      for ((m, b) <- fMaps.zipWithIndex) when(cFslot === b.U) { m.write(cxEff(idW - 1, 0), cEntry) }
-    }
-    when(cxEff + 1.U >= cPrevN) { cBusy := false.B; cNext := cNext + 1.U; cIncW := true.B; cFirst := false.B; cD.inc(); c2.inc(); c3.inc(); cF.inc() }
-      .otherwise { cBusy := true.B; cx := cxEff + 1.U }
+    when(cxEff + 1.U >= cPrevN) { cBusy := false.B }.otherwise { cBusy := true.B; cx := cxEff + 1.U }
   }
+  val cRbuf = c2.cur
+  val cSbuf = c3.prev
+  val cOpen = rvRead(cRbuf, c1Class)
+  val cEntry = Mux(cOpen, Cat(0.U(1.W), rMem(addr(cRbuf, c1Class)).pad(fW)),
+    Cat(1.U(1.W), readS(cSbuf, c1Class).pad(fW)))
+  when(c1v) {
+    for ((m, b) <- fMaps.zipWithIndex) when(cF.cur === b.U) { m.write(c1x, cEntry) }
+  }
+  when(c1Last) { cNext := cNext + 1.U; cIncW := true.B; cFirst := false.B; cD.inc(); c2.inc(); c3.inc(); cF.inc() }
 
   // ===== D: output chain =====
   class Beat extends Bundle {
-    val fslot = UInt((log2Ceil(NF) max 1).W) // (row sequence) mod NF
+    val tgt = UInt(NF.W) // one-hot: the map slot of the next lookup, (row sequence + stage + 1) mod NF
     val value = SInt(vW.W)
     val closed = Bool()
     val ptr = UInt(fW.W)
@@ -329,39 +484,39 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dColN = WireDefault(dCol); dCol := dColN
   val dD = new Slot(ND); val dF = new Slot(NF)
   val dSlot = dD.cur
-  val dVirt = metaVirtual(dSlot)
-  val dRowV = metaRow(dSlot); val dH = metaH(dSlot); val dWd = metaW(dSlot)
-  val dLen = Mux(dRowV +& (L - 1).U < dH - 1.U, (L - 1).U, dH - dRowV)
-  val dReady = dAN >= 1.S && Mux(dVirt, true.B, dCN >= (dLen +& 1.U).zext) // aNext >= dNext + 1, cNext >= dNext + n + 1
+  val dVirt = dD.regRead(metaVirtual); val dFirst = dD.regRead(metaFirst); val dLast = dD.regRead(metaLast)
+  val dLen = dD.regRead(metaLen); val dWd = dD.regRead(metaW); val dWm1 = dD.regRead(metaWm1)
+  val dReady = dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext) // aNext >= dNext + 1, cNext >= dNext + n + 1
   val word = delay.read(addr(dD.next, dColN)) // one cycle ahead: the row and column D holds next cycle
   val issue = dReady && advance
   val s0 = Wire(Valid(new Beat))
   s0.valid := issue
-  s0.bits.fslot := dF.cur
+  s0.bits.tgt := UIntToOH(dF.succ, NF)
   s0.bits.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
   s0.bits.closed := false.B
   s0.bits.ptr := word(idW - 1, 0)
-  s0.bits.n := Mux(dVirt, 0.U, dLen)
-  s0.bits.sof := !dVirt && dRowV === 0.U && dCol === 0.U
-  s0.bits.eol := !dVirt && dCol === dWd - 1.U
-  s0.bits.eof := !dVirt && dCol === dWd - 1.U && dRowV === dH - 1.U
-  s0.bits.lastRow := dRowV === dH - 1.U
+  s0.bits.n := dLen
+  s0.bits.sof := !dVirt && dFirst && dCol === 0.U
+  s0.bits.eol := !dVirt && dCol === dWm1
+  s0.bits.eof := !dVirt && dCol === dWm1 && dLast
+  s0.bits.lastRow := dLast
   s0.bits.cols := dWd
   s0.bits.virt := dVirt
   when(issue) {
-    when(dVirt || dCol === dWd - 1.U) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
+    when(dVirt || dCol === dWm1) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
   }
   // stage i (1..L) applies F_{seq + i} when i <= n. The maps are read one cycle ahead: each port's address comes
   // from the beats the stages hold next cycle (stagesNext), so a stage's lookup reads the data of its own beat.
-  private def target(i: Int, b: Beat): UInt = dF.plus(b.fslot, i)
+  private def target(b: Beat, k: Int): Bool = b.tgt(k)
   private def applies(i: Int, b: Beat): Bool = b.value >= 0.S && !b.closed && i.U <= b.n
   private val portData: Seq[Seq[UInt]] = Seq.fill(NF)(Seq.fill(2)(Wire(UInt((1 + fW).W))))
   private def lookup(i: Int, b: Beat): Beat = {
     val r = Wire(new Beat)
     r := b
     val apply = applies(i, b)
-    val e = Mux1H(fMaps.indices.map(k => target(i, b) === k.U), portData.map(_(i % 2)))
+    val e = Mux1H(fMaps.indices.map(k => target(b, k)), portData.map(_(i % 2)))
     when(apply) { r.closed := e(fW); r.ptr := e(fW - 1, 0) }
+    r.tgt := (if (NF > 1) Cat(b.tgt(NF - 2, 0), b.tgt(NF - 1)) else b.tgt) // the next stage's map: one slot on
     r
   }
   val stagesNext: Seq[Valid[Beat]] = (0 to L).map { i =>
@@ -377,7 +532,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
   for ((m, b) <- fMaps.zipWithIndex; q <- 0 until 2) {
     val users = (1 to L).filter(_ % 2 == q)
-    val sel = users.map(i => stagesNext(i - 1).valid && applies(i, stagesNext(i - 1).bits) && target(i, stagesNext(i - 1).bits) === b.U)
+    val sel = users.map(i => stagesNext(i - 1).valid && applies(i, stagesNext(i - 1).bits) && target(stagesNext(i - 1).bits, b))
     val address = if (users.isEmpty) 0.U else PriorityMux(sel :+ true.B, users.map(i => stagesNext(i - 1).bits.ptr(idW - 1, 0)) :+ 0.U)
     portData(b)(q) := (if (users.isEmpty) 0.U else m.read(address))
   }
@@ -417,7 +572,7 @@ object PostProcessSpeckle {
         "(L + 2) rows x maxWidth forward maps; one SyncReadMem per row, 2 read ports (block RAM)"),
       MemoryUse("Speckle", "P", 2 * w, idW, "merge parents (2 rows); SyncReadMem 1R1W (block RAM), read by B"),
       MemoryUse("Speckle", "K/R", (3 + 2) * w, idW,
-        "flat classes (3 rows), class -> node (2); Mem (LUT-RAM): A reads them in a chain within a clock"),
+        "flat classes (3 rows), class -> node (2); Mem (LUT-RAM), read combinationally (A0, A1, B, C)"),
       MemoryUse("Speckle", "S", 3 * w, sW, "saturating segment sizes, 3 rows; Mem (LUT-RAM)"),
       MemoryUse("Speckle", "Rvalid", 2, w, "touched-class flags (registers)"))
   }
