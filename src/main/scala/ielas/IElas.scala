@@ -196,10 +196,11 @@ object IElas {
     * these (`Main config`). Latency: the band, the late descriptor, the L/R check's row and post's look-ahead, plus
     * a margin of 4 rows: the stages' pipeline registers and the early path's tail at a frame's end (the support
     * filter's node takes one cycle more since its pipelining: about one row at mb-tsukuba, 151 523 cycles against
-    * 151 144 with the former margin of 2 rows).
+    * 151 144 with the former margin of 2 rows). The slack: 1000 cycles of pipeline fill and drain, plus one clock
+    * per row, since the speckle labeller takes W + 1 clocks per row (its four-step pipeline; PostProcessSpeckle).
     */
   def latencyRows(p: ElasParams): Int = bandRows(p) + Descriptor.latencyRows(p) + 1 + PostProcess.latencyRows(p) + 4
-  def cycleSlack(p: ElasParams): Int = 1000
+  def cycleSlack(p: ElasParams): Int = 1000 + p.maxHeight
   /** Image rows the early path needs beyond the row the late path works on: the grid row's dilation and filter
     * window (docs/ALGORITHM.md look-ahead table), the planes' next lattice row plus the fill's look-ahead, whichever
     * is larger, plus one lattice step and two rows of slack for the stages' internal pipelining.
