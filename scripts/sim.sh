@@ -5,6 +5,7 @@
 #   scripts/sim.sh build CONFIG [--stub]                 build (or reuse) build/sim/<config>/ielas_sim
 #   scripts/sim.sh run   CONFIG [--stub] HARNESS-ARGS... build if needed, then run ielas_sim --config CONFIG ...
 #   scripts/sim.sh path  CONFIG [--stub]                 print the binary's path (no build)
+#   scripts/sim.sh config CONFIG                          print the configuration file's absolute path (no build)
 #   scripts/sim.sh bench CONFIG [--stub] [--left L --right R] [--frames N]
 #                        the `make bench` numbers: N frames (default 3) of a pair (default KITTI 2012 000070) with no
 #                        stalls, then with 10 % input gaps and 10 % output stalls (seed 1); writes
@@ -40,7 +41,7 @@ CMD="$1" CONFIG="$2"
 shift 2
 STUB=0
 if [ "${1:-}" = "--stub" ]; then STUB=1; shift; fi
-case "$CMD" in build|run|path|bench|demo) ;; *) die "unknown command '$CMD' (build, run, path, bench, demo)" ;; esac
+case "$CMD" in build|run|path|bench|demo|config) ;; *) die "unknown command '$CMD' (build, run, path, bench, demo, config)" ;; esac
 
 NAME="$(basename "$CONFIG")"; NAME="${NAME%.json}"
 case "$CONFIG" in
@@ -49,6 +50,7 @@ case "$CONFIG" in
 esac
 [ -f "$CONFIG_FILE" ] || die "unknown configuration '$CONFIG' (no file $CONFIG_FILE)"
 CONFIG_FILE="$(cd "$(dirname "$CONFIG_FILE")" && pwd)/$(basename "$CONFIG_FILE")"
+if [ "$CMD" = config ]; then echo "$CONFIG_FILE"; exit 0; fi
 
 if [ "$STUB" = 1 ]; then
   DIR="$ROOT/build/sim/stub-$NAME"

@@ -40,12 +40,7 @@ case "$FRAMES" in ''|*[!0-9]*) die "--frames wants a positive integer, got '$FRA
 case "$SEED" in ''|*[!0-9]*) die "--seed wants a non-negative integer, got '$SEED'" ;; esac
 
 NAME="$(basename "$CONFIG")"; NAME="${NAME%.json}"
-case "$CONFIG" in
-  */*|*.json) CONFIG_FILE="$CONFIG" ;;
-  *) CONFIG_FILE="${IELAS_CONFIG_DIR:-$ROOT/golden/configs}/$CONFIG.json" ;;
-esac
-[ -f "$CONFIG_FILE" ] || die "unknown configuration '$CONFIG' (no file $CONFIG_FILE)"
-CONFIG_FILE="$(cd "$(dirname "$CONFIG_FILE")" && pwd)/$(basename "$CONFIG_FILE")"
+CONFIG_FILE="$("$ROOT/scripts/sim.sh" config "$CONFIG")" || exit 1
 GOLDEN="${IELAS_GOLDEN:-$ROOT/golden/build/ielas-golden}"
 [ -x "$GOLDEN" ] || die "no golden model $GOLDEN (make golden)"
 [ -n "$OUT" ] || OUT="$ROOT/build/soak/$NAME$([ ${#STUB[@]} -gt 0 ] && echo -stub || true)"
