@@ -46,6 +46,7 @@ const char* kUsage =
     "  --expect F    compare the last frame's output with F (<i2, (H, W), e.g. the golden disparity.npy):\n"
     "                prints 'mismatches: N' and the first mismatch; exit 5 when N > 0\n"
     "  --images      also write OUT/disparity.pfm and OUT/disparity_kitti.png (KITTI uint16, disparity*256)\n"
+    "  --row-cycles  also write OUT/row_cycles.csv: per frame and row, the cycles of its last input and output pixel\n"
     "  +...          passed to the Verilated model ($value$plusargs)\n";
 
 struct Options {
@@ -56,6 +57,7 @@ struct Options {
   uint64_t seed = 1;
   long long timeout = -1;
   bool images = false;
+  bool rowCycles = false;
   std::vector<std::string> plusargs;
 };
 
@@ -66,6 +68,10 @@ Options parseArgs(int argc, char** argv) {
     if (a == "-h" || a == "--help") {
       std::fputs(kUsage, stdout);
       std::exit(0);
+    }
+    if (a == "--row-cycles") {
+      o.rowCycles = true;
+      continue;
     }
     if (a == "--images") {
       o.images = true;
@@ -251,6 +257,15 @@ int main(int argc, char** argv) {
     if (!c) throw std::runtime_error("cannot write " + o.out + "/cycles.txt");
     std::fprintf(c, "%lu\n", (unsigned long)cycles);
     std::fclose(c);
+    if (o.rowCycles) {  // where the input waits: a row whose last input comes more than W cycles after the previous
+      FILE* r = std::fopen((o.out + "/row_cycles.csv").c_str(), "w");
+      if (!r) throw std::runtime_error("cannot write " + o.out + "/row_cycles.csv");
+      std::fprintf(r, "frame,row,last_input_cycle,last_output_cycle\n");
+      for (uint64_t i = 0; i < F * H; ++i)
+        std::fprintf(r, "%lu,%lu,%lu,%lu\n", (unsigned long)(i / H), (unsigned long)(i % H), (unsigned long)inRowLast[i],
+                     (unsigned long)outRowLast[i]);
+      std::fclose(r);
+    }
     if (o.images) {
       cv::Mat d(H, W, CV_32F);  // output format: disparity*16, negative = invalid
       for (uint64_t i = 0; i < N; ++i)

@@ -203,7 +203,7 @@ object IElas {
   def cycleSlack(p: ElasParams): Int = 1000 + p.maxHeight
   /** Image rows the early path needs beyond the row the late path works on: the grid row's dilation and filter
     * window (docs/ALGORITHM.md look-ahead table), the planes' next lattice row plus the fill's look-ahead, whichever
-    * is larger, plus one lattice step and two rows of slack for the stages' internal pipelining.
+    * is larger (bandRows adds the time the early path takes to produce them).
     */
   def earlyLookahead(p: ElasParams): Int = {
     val support = 2 * p.windowRadius + 1
@@ -215,7 +215,15 @@ object IElas {
     }
     math.max(grid, p.candidateStep + fill)
   }
-  def bandRows(p: ElasParams): Int = earlyLookahead(p) + p.candidateStep + 2
+  /** The look-ahead, plus one lattice step (the support search of a lattice row), the rows of input time in which
+    * the grid stage emits a grid row (the late path loads a whole grid row before its first pixel: without them the
+    * input waits about a row every gridSize rows, 3 % at kitti) and two rows for the stages' internal pipelining.
+    */
+  def bandRows(p: ElasParams): Int = earlyLookahead(p) + p.candidateStep + gridEmitRows(p) + 2
+  def gridEmitRows(p: ElasParams): Int = {
+    val rowClocks = p.cyclesPerPixel * p.maxWidth
+    (GridVector.rowCycles(p, p.maxWidth) + rowClocks - 1) / rowClocks
+  }
   def bandEntries(p: ElasParams): Int = bandRows(p) * p.maxWidth
   /** Lattice rows the fill can run ahead of the planes (one row per step image rows of the band), plus two. */
   def latticeQueueEntries(p: ElasParams): Int = (bandRows(p) / p.candidateStep + 3) * p.latticeColsMax
