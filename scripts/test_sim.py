@@ -13,6 +13,7 @@ the stub neither flags nor pads must make the run fail with the documented exit 
 
 Run: python3 scripts/test_sim.py   (no numpy needed; images are PGM files written here)
 """
+import csv
 import os
 import random
 import re
@@ -182,6 +183,20 @@ class HarnessTest(unittest.TestCase):
         if stdout_pattern:
             self.assertRegex(r.stdout, stdout_pattern)
         return r
+
+    def test_row_cycles(self):
+        # --row-cycles: each row's last input cycle under the stub's back-pressure (pixel k enters k + k // (K-1)
+        # cycles after the first), and the last row's last output is the end of the measured cycles
+        w, h, _ = self.images["a"]
+        k = 4
+        _, cycles, _ = self.check_ok("a", ["+stub_bp=%d" % k, "--row-cycles"], 2, 5, out="rows")
+        with open(self.path("rows/row_cycles.csv")) as f:
+            rows = list(csv.DictReader(f))
+        self.assertEqual([(int(x["frame"]), int(x["row"])) for x in rows], [(0, y) for y in range(h)])
+        enters = lambda i: i + i // (k - 1)
+        first = int(rows[0]["last_input_cycle"]) - enters(w - 1)
+        self.assertEqual([int(x["last_input_cycle"]) - first for x in rows], [enters((y + 1) * w - 1) for y in range(h)])
+        self.assertEqual(int(rows[-1]["last_output_cycle"]) - first + 1, cycles)
 
     def test_fault_missing_eol(self):
         self.check_fault(1, 2, r"^ielas_sim: 1 framing error\(s\)",

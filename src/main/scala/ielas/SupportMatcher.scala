@@ -160,6 +160,9 @@ class SupportMatcher(p: ElasParams) extends Module {
   // cycle after the pixel, the right word two. That bank's next write is `banks` columns away, and a kind's captured
   // rows are step >= 2 pixel rows apart, so the two never meet; the sweeps never read the last r + 1 columns of a
   // row, whose writes may still be under way when the walker finds the row complete.
+  // A kind captures consecutive columns of one row, so the left word of column x and the right word of column x - 1
+  // written in one cycle go to banks of different parity: the write data and address are chosen once per bank
+  // parity (two 128-bit multiplexers per kind) instead of once per bank.
   val leftData = RegNext(io.in.bits.data.left)
   val rightData = RegNext(RegNext(io.in.bits.data.right))
   for ((tracker, kind) <- Seq(topRow, bottomRow).zipWithIndex) {
@@ -167,12 +170,16 @@ class SupportMatcher(p: ElasParams) extends Module {
     val leftPending = RegNext(hit, false.B)
     val leftBank = RegNext(capBank)
     val leftAddr = RegNext(rowAddress(0.U, tracker.slot, capWord))
-    for (b <- 0 until banks) { // one write port per memory, its address decided a cycle ahead
-      val nowLeft = hit && capBank === b.U
+    val byParity = (0 until 2).map { parity =>
+      val nowLeft = hit && capBank(0) === parity.U
       val writeLeft = RegNext(nowLeft, false.B)
-      val writeRight = RegNext(leftPending && leftBank === b.U, false.B)
       val addr = RegNext(Mux(nowLeft, rowAddress(0.U, tracker.slot, capWord), leftAddr + viewWords.U))
-      when(writeLeft || writeRight) { rowMem(kind)(b).write(addr, Mux(writeLeft, leftData, rightData)) }
+      (addr, Mux(writeLeft, leftData, rightData))
+    }
+    for (b <- 0 until banks) { // one write port per memory
+      val write = RegNext(hit && capBank === b.U || leftPending && leftBank === b.U, false.B)
+      val (addr, data) = byParity(b % 2)
+      when(write) { rowMem(kind)(b).write(addr, data) }
     }
   }
   // texture test of the centre rows, one cycle later: half sums registered, then their sum compared
