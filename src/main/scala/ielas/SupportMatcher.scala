@@ -235,17 +235,29 @@ class SupportMatcher(p: ElasParams) extends Module {
   val nextRead = RegInit(false.B) // ... the next node's left references (read while a left result is computed)
   refRead := false.B
   nextRead := false.B
-  def bankWord(c0: UInt, b: Int): UInt = (blockOf(c0) +& (b.U < c0(bankBits - 1, 0)).asUInt)(blockW - 1, 0)
   def readReference(view: Bool, c0: UInt): Unit = {
     readView := view
     readWord := blockOf(c0)
     readSplit := c0(bankBits - 1, 0)
     readC0 := c0
   }
-  val bankAddr = Wire(Vec(banks, UInt(log2Ceil(2 * viewWords).W)))
-  for (b <- 0 until banks) {
-    bankAddr(b) := rowAddress(readView, walkSlot, (readWord +& (b.U < readSplit).asUInt)(blockW - 1, 0))
+  /** The addresses of a read of word `word` (banks >= `split` of a reference read) and word + 1 (banks below it):
+    * two row addresses per read, each bank picks one.
+    */
+  class ReadAddress extends Bundle {
+    val word = UInt(log2Ceil(2 * viewWords).W)
+    val next = UInt(log2Ceil(2 * viewWords).W)
+    val split = UInt(bankBits.W)
   }
+  def readAddress(view: Bool, word: UInt, split: UInt): ReadAddress = {
+    val a = Wire(new ReadAddress)
+    a.word := rowAddress(view, walkSlot, word)
+    a.next := rowAddress(view, walkSlot, (word +& 1.U)(blockW - 1, 0))
+    a.split := split
+    a
+  }
+  val bankRead = WireDefault(readAddress(readView, readWord, readSplit))
+  val bankAddr = VecInit((0 until banks).map(b => Mux(b.U < bankRead.split, bankRead.next, bankRead.word)))
   val data = (0 until 2).map(kind => (0 until banks).map(b => rowMem(kind)(b).read(bankAddr(b))))
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
@@ -278,9 +290,16 @@ class SupportMatcher(p: ElasParams) extends Module {
   tag.left := phaseLeft; tag.first := sweepStart; tag.last := j === jLo
   val s0Valid = RegNext(issue, false.B)
   val s0Tag = RegNext(tag)
-  val s0Block = RegNext(j)
-  val s0MinC1 = RegNext(minC1)
-  val s0MaxC1 = RegNext(maxC1)
+  // Which lanes of block j hold columns c1 = jL + k of the sweep (laneLo <= k < laneEnd), and lane k's d (left:
+  // maxC1 - c1 = dBase - k, right: c1 - minC1 = dBase + k, modulo 2^baseW), decided per block in the issue cycle
+  // so that a lane adds a constant instead of comparing and subtracting columns.
+  private val laneW = bankBits + 1
+  private def high(col: UInt): UInt = col >> bankBits
+  private def low(col: UInt): UInt = col(bankBits - 1, 0)
+  val blockStart = Cat(j, 0.U(bankBits.W))
+  val s0LaneLo = RegNext(Mux(j > high(minC1), 0.U(laneW.W), Mux(j === high(minC1), low(minC1), banks.U)))
+  val s0LaneEnd = RegNext(Mux(j < high(maxC1), banks.U(laneW.W), Mux(j === high(maxC1), low(maxC1) +& 1.U, 0.U)))
+  val s0DBase = RegNext(Mux(phaseLeft, maxC1 - blockStart, blockStart - minC1)(baseW - 1, 0))
   // columns 0 .. 2r - 1 of the block issued before (block j + 1): the partners of the top 2r lanes
   val prevBlock = data.map(cols => RegEnable(VecInit(cols.take(2 * r).toSeq), s0Valid))
 
@@ -321,9 +340,8 @@ class SupportMatcher(p: ElasParams) extends Module {
     }), s0Valid)
   }
   val aLane = (0 until lanes).map { k =>
-    val c1 = Cat(s0Block, k.U(bankBits.W))
-    val inSweep = c1 >= s0MinC1 && c1 <= s0MaxC1
-    val d = Mux(s0Tag.left, s0MaxC1 - c1, c1 - s0MinC1)(baseW - 1, 0)
+    val inSweep = k.U >= s0LaneLo && k.U < s0LaneEnd
+    val d = s0DBase + Mux(s0Tag.left, (((1 << baseW) - k) % (1 << baseW)).U(baseW.W), k.U(baseW.W))
     (RegEnable(inSweep, s0Valid), RegEnable(d, s0Valid))
   }
   // B: lane costs
@@ -411,7 +429,7 @@ class SupportMatcher(p: ElasParams) extends Module {
     val c0 = UInt(colW.W) //   u' - r, u' = u - d1
     val maxC1 = UInt(colW.W) // u' - r + min(W - 1 - margin - u', dispMax)
     val j = UInt(blockW.W)
-    val addr = Vec(banks, UInt(log2Ceil(2 * viewWords).W))
+    val read = new ReadAddress
   }
   def rightSetup(d1: UInt): RightSetup = {
     val s = Wire(new RightSetup)
@@ -421,7 +439,7 @@ class SupportMatcher(p: ElasParams) extends Module {
     val top2 = refTop2 - d
     s.maxC1 := Mux(top > rightLimit, rightLimit, top)(colW - 1, 0)
     s.j := blockOf(Mux(top2 > rightLimit2, rightLimit2, top2))
-    for (b <- 0 until banks) s.addr(b) := rowAddress(1.U, walkSlot, bankWord(s.c0, b))
+    s.read := readAddress(true.B, blockOf(s.c0), s.c0(bankBits - 1, 0))
     s
   }
   val rightNext = Mux(takeBlock, rightSetup(blockBest.d1), rightSetup(running.d1))
@@ -498,7 +516,7 @@ class SupportMatcher(p: ElasParams) extends Module {
       }
     }
   }
-  when(decideLeft) { bankAddr := rightNext.addr } // the right references, u' - r .. u' + r
+  when(decideLeft) { bankRead := rightNext.read } // the right references, u' - r .. u' + r
   // the last right block of the next node waits until this node's decision has left
   when(state === sSweep && !phaseLeft && j === jLo && pendBusy) { hold := true.B }
 
