@@ -160,13 +160,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val finTop = Reg(Vec(3, UInt(idW.W)))
   val finSize = Reg(Vec(3, UInt(sW.W)))
   val finAny = RegInit(VecInit(Seq.fill(3)(false.B)))
-  private val slotBits = log2Ceil(ND max 3) // every row-slot counter (delay line, K and S, R and P) fits
-  /** Entry x (< W) of row slot `slot`: a concatenation when W is a power of 2, else the slot's base from a table of
-    * constants plus x (a multiplier by W would put its adders on every memory address).
-    */
+  /** Entry x (< W) of row slot `slot`: a concatenation when W is a power of 2. */
   private def addr(slot: UInt, x: UInt): UInt =
-    if (isPow2(W)) Cat(slot, x(log2Ceil(W) - 1, 0))
-    else VecInit((0 until (1 << slotBits)).map(s => (s * W).U(log2Ceil(((1 << slotBits) - 1) * W + 1).W)))(slot) + x
+    if (isPow2(W)) Cat(slot, x(log2Ceil(W) - 1, 0)) else slot * W.U + x
   private def readS(buf: UInt, x: UInt): UInt =
     Mux(finAny(buf) && finTop(buf) === x, finSize(buf), sMem(addr(buf, x)))
 
