@@ -262,7 +262,10 @@ class SupportMatcher(p: ElasParams) extends Module {
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
   // ---- reference descriptors (columns c0 and c0 + 2r of a reference read), kept in registers ----
-  def column(data: Seq[UInt], col: UInt): UInt = Mux1H(data.indices.map(b => col(bankBits - 1, 0) === b.U), data)
+  /** The word of column `col`'s bank: a binary multiplexer tree (4:1 per LUT level), which maps to fewer LUTs than a
+    * one-hot AND-OR of the banks.
+    */
+  def column(data: Seq[UInt], col: UInt): UInt = VecInit(data)(col(bankBits - 1, 0))
   val refLo = Reg(Vec(2, UInt(descBits.W)))
   val refHi = Reg(Vec(2, UInt(descBits.W)))
   val nextLo = Reg(Vec(2, UInt(descBits.W)))
