@@ -58,7 +58,8 @@ import chisel3.util._
   * for this cycle (A's last pixels write while B starts that row). K, R and S stay combinational (LUT-RAM), read in
   * A0 and A1 and by B and C. B, C and D read the per-row metadata from registers one cycle old (written at least
   * two cycles before a row becomes theirs). Row slots are wrapping counters, not `seq % n`; D's chain beats carry
-  * their map slot one-hot (rotated by one per stage).
+  * their map slot one-hot (rotated by one per stage; it selects the read addresses) and as a number (it selects the
+  * read data: a binary multiplexer tree is far smaller than a one-hot AND-OR in LUTs).
   */
 class PostProcessSpeckle(p: ElasParams) extends Module {
   private val L = p.speckleWindowRows
@@ -460,6 +461,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // ===== D: output chain =====
   class Beat extends Bundle {
     val tgt = UInt(NF.W) // one-hot: the map slot of the next lookup, (row sequence + stage + 1) mod NF
+    val slot = UInt(log2Ceil(NF).W) // the same slot as a number (the lookup's multiplexer: a binary tree is smaller)
     val value = SInt(vW.W)
     val closed = Bool()
     val ptr = UInt(fW.W)
@@ -492,6 +494,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val s0 = Wire(Valid(new Beat))
   s0.valid := issue
   s0.bits.tgt := UIntToOH(dF.succ, NF)
+  s0.bits.slot := dF.succ
   s0.bits.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
   s0.bits.closed := false.B
   s0.bits.ptr := word(idW - 1, 0)
@@ -514,9 +517,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val r = Wire(new Beat)
     r := b
     val apply = applies(i, b)
-    val e = Mux1H(fMaps.indices.map(k => target(b, k)), portData.map(_(i % 2)))
+    val e = VecInit(portData.map(_(i % 2)))(b.slot)
     when(apply) { r.closed := e(fW); r.ptr := e(fW - 1, 0) }
     r.tgt := (if (NF > 1) Cat(b.tgt(NF - 2, 0), b.tgt(NF - 1)) else b.tgt) // the next stage's map: one slot on
+    r.slot := Mux(b.slot === (NF - 1).U, 0.U, b.slot + 1.U)
     r
   }
   val stagesNext: Seq[Valid[Beat]] = (0 to L).map { i =>
