@@ -677,7 +677,8 @@ class DenseMatcher(p: ElasParams) extends Module {
       val inGroup = (0 until groups).map { g =>
         all.lift(g * lanes + k).getOrElse { val x = Wire(new Cand); x := 0.U.asTypeOf(new Cand); x }
       }
-      if (groups == 1) inGroup.head else Mux1H(inGroup.indices.map(g => group === g.U), inGroup)
+      // a binary multiplexer tree on the group number (a one-hot AND-OR maps to about three times the LUTs)
+      if (groups == 1) inGroup.head else VecInit(inGroup.padTo(1 << group.getWidth, inGroup.last))(group)
     }
   }
   // lane k of the left view reads descR(P - d_k), of the right view descL(P + d_k); the reads leave with the pixel

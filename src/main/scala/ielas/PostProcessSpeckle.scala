@@ -31,35 +31,42 @@ import chisel3.util._
   * Buffers (W = maxWidth, ids idW = log2(W) bits, size sW = log2(speckleSize + 1) bits, L = speckleWindowRows):
   *   delay line   (L + 4) rows x W x (dispBits + 1 + idW)
   *   F maps       (L + 2) rows x W x (1 + max(idW, sW)), one memory per row, 2 read ports
-  *   P, R         2 rows x W x idW each;  K, S  3 rows x W x idW / sW;  R valid flags 2 x W bits (registers)
+  *   P, R         2 rows x W x idW each (R: 2 replicas);  K, S  3 rows x W x idW / sW (3 replicas each)
+  *   R valid flags 2 x W bits (registers)
   *   row above    2^(colBits + 1) x (dispBits + 1 + idW) (A's last pixels again, >= 2 rows)
-  * A is a pipeline of four steps, so that no step follows a chain of lookups (each about 6 LUT levels):
+  * A is a pipeline of five steps, so that no step follows a chain of lookups (each about 6 LUT levels):
   *  - T takes the input beat into registers; ready depends on registers only, not on the beat.
   *  - A0: the left connection, the run's node id and node count (a recurrence on the input alone), the delay line
-  *    and row-above writes, the up pixel's connection and its flat class cls = K_{k-1}[up node] (0 for node 0,
-  *    B's result when B computes that node this cycle, else K); the row's start bookkeeping.
-  *  - A1: cls's row-k entries: touched flag, node rn = R_k[cls], S_{k-1}[cls], S_k[rn].
-  *  - A2: the label state (top node, its size) and the writes of R_k, P_k, S_k; it forwards its own write of the
-  *    cycle in which A1 read (the same class touched first by the previous pixel; the old top's size written back).
-  *  A row's first pixel is taken once the previous row's last pixel has left A0 (its A1 reads of S_{k-1} then follow
-  *  A2's last writes), its second pixel once B works on row k - 1 or is past it (so from the second pixel on, K_{k-1}
-  *  of the up node is written or is B's current node: node ids are at most the column and B does one per clock).
-  *  B and C start a row while its last pixel is in A2, so a row takes W + 1 clocks when the engines keep up (W
-  *  before the pipeline). C works in two steps (the class, then its entry and the map write).
+  *    and row-above writes, the up pixel's connection; K_{k-1}[up node] is read.
+  *  - AK: the flat class cls = K_{k-1}[up node] (0 for node 0, B2's result when B2 computes that node this cycle);
+  *    R_k[cls] and S_{k-1}[cls] are read.
+  *  - A1: R_k[cls] (the word read, or the node A2 writes there now), the touched flag, the comparisons A2's decision
+  *    needs; S_k of that node is read (the read includes A2's write-back of this cycle).
+  *  - A2: the label state (top node, its size) and the writes of R_k, P_k, S_k; it forwards its own touched-flag
+  *    write of the cycle in which A1 read (the same class touched first by the previous pixel).
+  *  A row's first pixel is taken once the previous row's last pixel has left A0 (its AK reads of S_{k-1} then see
+  *  A2's last writes), its second pixel once B1 works on row k - 1 or is past it (so from the second pixel on,
+  *  K_{k-1} of the up node is written or is B2's current node: node ids are at most the column and B does one per
+  *  clock). B and C start a row while its last pixel is in A2, so a row takes W + 2 clocks when the engines keep up
+  *  (W before the pipeline). B works in two steps (B1: P_k[x] is there, K_k[P_k[x]] is read; B2: K_k[x] is written),
+  *  C in three (the class, its entry, the map write).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus L + 3 clocks of chain and A's 3 steps; at W + 1 clocks a row
-  * [[PostProcessSpeckle.latencyRows]] = L + 2 rows of W bounds it for W >= 2 L + 7 (narrower frames stay within
-  * the constant of the spec's bound).
-  * Memories: the delay line, the row above, the F maps and P are block RAM (SyncReadMem), each read one cycle ahead
-  * at the address its reader holds next cycle (D's row and column, A's pixel count, the beat each chain stage holds
-  * next, B's node). The delay line, row above and F map reads never meet a write of the same cycle (D reads rows A
-  * has finished, the row above was written frameW > 1 pixels earlier, C writes maps no beat in the chain still
-  * needs); P is written a cycle after A asks, from registers, and B's read forwards that write and the one asked
-  * for this cycle (A's last pixels write while B starts that row). K, R and S stay combinational (LUT-RAM), read in
-  * A0 and A1 and by B and C. B, C and D read the per-row metadata from registers one cycle old (written at least
-  * two cycles before a row becomes theirs). Row slots are wrapping counters, not `seq % n`; D's chain beats carry
-  * their map slot one-hot (rotated by one per stage; it selects the read addresses) and as a number (it selects the
-  * read data: a binary multiplexer tree is far smaller than a one-hot AND-OR in LUTs).
+  * about W nodes), plus L + 3 clocks of chain and A's steps; at W + 2 clocks a row that is within L + 2 rows of W
+  * for W >= 3 L + 10, and the 2 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
+  * ceil(2 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
+  * Memories: every memory is block RAM (SyncReadMem), each read one cycle ahead at the address its reader holds next
+  * cycle (D's row and column, A's pixel count, the beat each chain stage holds next, B's node) or at the address a
+  * pipeline step forms for the next step. A read sees the writes of its own cycle (the memories are transparent);
+  * a write in the cycle after the read is forwarded by the reader (A1: A2's R write; A2: the previous pixel's first
+  * touch, through its touched flag). The delay line, row above and F map reads never meet a write of the same cycle
+  * (D reads rows A has finished, the row above was written frameW > 1 pixels earlier, C writes maps no beat in the
+  * chain still needs); P is written a cycle after A asks, from registers, and B's read forwards that write and the
+  * one asked for this cycle (A's last pixels write while B starts that row). K (written by B2), R and S (by A2) have
+  * one replica per reader (K: A0, B1, C0; R: AK, C1; S: AK, A1, C1). B, C and D read the per-row metadata from
+  * registers one cycle old (written at least two cycles before a row becomes theirs). Row slots are wrapping
+  * counters, not `seq % n`; D's chain beats carry their map slot one-hot (rotated by one per stage; it selects the
+  * read addresses) and as a number (it selects the read data: a binary multiplexer tree is far smaller than a one-hot
+  * AND-OR in LUTs).
   */
 class PostProcessSpeckle(p: ElasParams) extends Module {
   private val L = p.speckleWindowRows
@@ -136,9 +143,24 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // the write reaches the memory a cycle later, from registers (A's labelling logic stays off the RAM's address pins)
   val pwEn = RegNext(pWen, false.B); val pwAddr = RegEnable(pWAddr, pWen); val pwData = RegEnable(pWData, pWen)
   when(pwEn) { pMem.write(pwAddr, pwData) }
-  val kMem = Mem(3 * W, UInt(idW.W)) // 3 rows: B never waits for C to finish reading K_{k-2}
-  val rMem = Mem(2 * W, UInt(idW.W))
-  val sMem = Mem(3 * W, UInt(sW.W))
+  /** A table with one writer and several readers: one block-RAM replica per reader (1R1W each), all written alike.
+    * A read is issued a cycle before its data is used and sees every write up to and including its own cycle
+    * (the memories' read-during-write is transparent); later writes are forwarded by the reader. */
+  class Table(name: String, depth: Int, width: Int, readers: Int) {
+    private val mems = Seq.tabulate(readers)(i => SyncReadMem(depth, UInt(width.W)).suggestName(s"${name}_$i"))
+    val wen = WireDefault(false.B)
+    val waddr = WireDefault(0.U(log2Ceil(depth).W))
+    val wdata = WireDefault(0.U(width.W))
+    when(wen) { mems.foreach(_.write(waddr, wdata)) }
+    def write(a: UInt, d: UInt): Unit = { wen := true.B; waddr := a; wdata := d }
+    def read(reader: Int, a: UInt): UInt = mems(reader).read(a)
+  }
+  // K: flat classes, 3 rows (B never waits for C to finish reading K_{k-2}); written by B2, read by A0, B1, C0.
+  val kTab = new Table("kMem", 3 * W, idW, 3)
+  // R: class -> row-k node, 2 rows; written by A2, read by AK and C1.
+  val rTab = new Table("rMem", 2 * W, idW, 2)
+  // S: saturating sizes, 3 rows; written by A2, read by AK (S_{k-1}), A1 (S_k) and C1 (S_{k-1}).
+  val sTab = new Table("sMem", 3 * W, sW, 3)
   val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
   // one bit of each buffer, then the buffer (not a 2 x maxWidth-bit mux before the bit select)
   private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, bitAt(rValid(1), idx), bitAt(rValid(0), idx))
@@ -164,8 +186,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   /** Entry x (< W) of row slot `slot`: a concatenation when W is a power of 2. */
   private def addr(slot: UInt, x: UInt): UInt =
     if (isPow2(W)) Cat(slot, x(log2Ceil(W) - 1, 0)) else slot * W.U + x
-  private def readS(buf: UInt, x: UInt): UInt =
-    Mux(finAny(buf) && finTop(buf) === x, finSize(buf), sMem(addr(buf, x)))
+  /** S of a finished row: the word read, unless x is the row's last top (kept in registers, not written back). */
+  private def finS(buf: UInt, x: UInt, word: UInt): UInt = Mux(finAny(buf) && finTop(buf) === x, finSize(buf), word)
 
   // ---- engine counters (row sequence numbers) ----
   val aNext = RegInit(0.U(seqW.W)) // rows that have left A's last step
@@ -178,7 +200,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val bNext = RegInit(0.U(seqW.W)); val bBusy = RegInit(false.B)
   val bD = new Slot(ND); val b2 = new Slot(2); val b3 = new Slot(3)
   val cNext = RegInit(0.U(seqW.W)); val cBusy = RegInit(false.B)
-  val c1Last = RegInit(false.B) // C's second step writes the last entry of row cNext
+  val c2Last = RegInit(false.B) // C's last step writes the last entry of row cNext
   val cD = new Slot(ND); val c2 = new Slot(2); val c3 = new Slot(3); val cF = new Slot(NF)
   val dDone = RegInit(0.U(seqW.W)) // rows retired by D (left the last chain stage)
   /** x - y of two row counters as a small signed register, updated with their increments: the engines' start
@@ -225,6 +247,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val rowStart = Bool(); val lastCol = Bool()
     val row = UInt(p.rowBits.W); val hasUp = Bool(); val col = UInt(p.colBits.W); val pos = UInt((p.colBits + 1).W)
   }
+  class AKBeat extends Bundle {
+    val sl = new ASlots
+    val rowStart = Bool(); val lastCol = Bool()
+    val valid = Bool(); val newRun = Bool(); val node = UInt(idW.W); val connectU = Bool(); val upId = UInt(idW.W)
+  }
   class A1Beat extends Bundle {
     val sl = new ASlots
     val rowStart = Bool(); val lastCol = Bool()
@@ -232,16 +259,18 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
   class A2Beat extends Bundle {
     val p = new A1Beat
-    val rv = Bool(); val rn = UInt(idW.W) // R_k flag and node of cls as read in A1
+    val rv = Bool(); val rn = UInt(idW.W) // R_k flag and node of cls as known in A1
     val sPrev = UInt(sW.W) // S_{k-1}[cls]
-    val mSize = UInt(sW.W) // S_k[rn], with A2's write-back of that cycle
     val hitPre = Bool() // the pixel then in A2 had the same class
     val neNode = Bool() // rn =/= node
     val eqT = Bool(); val eqN = Bool(); val eqR = Bool() // rn equals the pixel then in A2's top, node, rn
   }
   val inA0v = RegInit(false.B); val inA0 = Reg(new A0Beat)
+  val inAKv = RegInit(false.B); val inAK = Reg(new AKBeat)
   val inA1v = RegInit(false.B); val inA1 = Reg(new A1Beat)
   val inA2v = RegInit(false.B); val inA2 = Reg(new A2Beat)
+  // A2's R write of this cycle (A1 forwards it: its R word was read a cycle earlier)
+  val a2RWrite = WireDefault(false.B); val a2PushTop = Wire(UInt(idW.W))
   /** A2 holds the last pixel of row aNext: B and C may start that row now. */
   val aLastInA2 = inA2v && inA2.p.lastCol
 
@@ -251,11 +280,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // row bNext is labelled (aNext >= bNext + 1, or its last pixel is in A2), cNext + 1 >= bNext
   val bCanStart = !bBusy && (dAB >= 1.S || dAB === 0.S && aLastInA2) && dCB >= -1.S
   val bActive = bBusy || bCanStart
-  val bComputed = Wire(UInt(idW.W))
+  val bComputed = Wire(UInt(idW.W)) // B2's K entry of this cycle
+  val b2v = RegInit(false.B) // B2 computes and writes K_k[b2x] now
+  val b2x = Reg(UInt(idW.W)); val b2Slot = Reg(UInt(2.W))
 
   // ---- T ----
   // row k = tNext: bNext >= k - 1, cNext + 1 >= k (or C writes its last entry of row k - 2 now), dDone + ND >= k + 1
-  val rowOk = !aBusy && !inA0v && dBT >= -1.S && (dCT >= -1.S || dCT === -2.S && c1Last) && dDT >= (1 - ND).S
+  val rowOk = !aBusy && !inA0v && dBT >= -1.S && (dCT >= -1.S || dCT === -2.S && c2Last) && dDT >= (1 - ND).S
   // B works on row k - 1 or is past it (the second pixel of a row needs K_{k-1}, see A0)
   val bOnRow = dBT >= 0.S || dBT === -1.S && bActive
   val rowStartNow = !aBusy
@@ -290,7 +321,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row). It starts
   // with A empty and counts as labelled a cycle later (after its meta writes, for B's and D's registered copies).
   // Its condition is taken a cycle old: once true it stays true while the frame's last row drains (no pixel comes).
-  val virtualStart = needVirtual && RegNext(rowOk && bOnRow && !inA1v && !inA2v, false.B)
+  val virtualStart = needVirtual && RegNext(rowOk && bOnRow && !inAKv && !inA1v && !inA2v, false.B)
   when(virtualStart) {
     needVirtual := false.B
     for ((r, b) <- rValid.zipWithIndex) when(a2.cur === b.U) { r := 0.U }
@@ -314,11 +345,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val upVal = upWord(vW + idW - 1, idW).asSInt
   val upId = upWord(idW - 1, 0)
   val connectU = a0Valid && inA0.hasUp && upVal >= 0.S && similar(inA0.v, upVal)
-  // K_{k-1}[upId], the flat class, final: an up node id is at most the column, node 0 is always its own class, and
-  // from the second pixel on B works on row k - 1 (one node per clock, never stalling; T took the second pixel no
-  // earlier than B's first cycle on the row) or is past it: K_{k-1}[upId] is written, or B computes it now (bypass).
-  // While a pixel of row k is in A0, B cannot have started row k, so bActive means B is on row k - 1.
-  val cls = Mux(upId === 0.U, 0.U, Mux(bActive && upId === bx, bComputed, kMem(addr(inA0.sl.sPrev, upId))))
+  // K_{k-1}[upId] is read now and used in AK (below)
+  val kWordA = kTab.read(0, addr(inA0.sl.sPrev, upId))
   // the row's start bookkeeping (a cycle after T; A1 reads R_k's flags a cycle later)
   when(inA0v && inA0.rowStart) {
     val d = inA0.sl.d
@@ -336,27 +364,40 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     upRows.write(inA0.pos, Cat(inA0.v.asUInt, thisRun))
     when(inA0.lastCol) { metaN(inA0.sl.d) := cntBase + newRun.asUInt }
   }
-  inA1v := inA0v
-  inA1.sl := inA0.sl
-  inA1.rowStart := inA0.rowStart; inA1.lastCol := inA0.lastCol; inA1.valid := a0Valid; inA1.newRun := newRun
-  inA1.node := nodeNow; inA1.connectU := connectU; inA1.cls := cls
+  inAKv := inA0v
+  inAK.sl := inA0.sl
+  inAK.rowStart := inA0.rowStart; inAK.lastCol := inA0.lastCol; inAK.valid := a0Valid; inAK.newRun := newRun
+  inAK.node := nodeNow; inAK.connectU := connectU; inAK.upId := upId
+
+  // ---- AK: the flat class cls = K_{k-1}[up node]; R_k[cls] and S_{k-1}[cls] are read ----
+  // K_{k-1}[upId] is final: an up node id is at most the column, node 0 is always its own class, and from the second
+  // pixel on B works on row k - 1 (one node per clock, never stalling; T took the second pixel no earlier than B1's
+  // first cycle on the row) or is past it: the word read in A0 holds K_{k-1}[upId], or B2 computes it now (bypass).
+  // While a pixel of row k is in AK, B cannot have started row k, so B2 is on row k - 1 or done with it.
+  val cls = Mux(inAK.upId === 0.U, 0.U,
+    Mux(b2v && b2Slot === inAK.sl.sPrev && b2x === inAK.upId, bComputed, kWordA))
+  val rWordA = rTab.read(0, addr(inAK.sl.r, cls))
+  val sPrevWord = sTab.read(0, addr(inAK.sl.sPrev, cls))
+  inA1v := inAKv
+  inA1.sl := inAK.sl
+  inA1.rowStart := inAK.rowStart; inA1.lastCol := inAK.lastCol; inA1.valid := inAK.valid; inA1.newRun := inAK.newRun
+  inA1.node := inAK.node; inA1.connectU := inAK.connectU; inA1.cls := cls
 
   // ---- A1: the class's row-k entries ----
-  // A2's writes of this same cycle are not in these reads; A2 forwards them (the touched class via hitPre, the old
-  // top's size written back here). Earlier writes are in the memories; R_k's flags were cleared by T at the row start.
-  // The pixel in A2 is the previous one of the same row (a row's first pixel finds A2 empty).
+  // R_k[cls]: the word read in AK, or the node A2 writes there now (the class touched first by the pixel in A2);
+  // S_k of that node is read now (and seen by A2: the read includes A2's write-back of this cycle). A2's rValid write
+  // of this cycle is not in the flag read here; A2 forwards it (hitPre). R_k's flags were cleared at the row start.
+  // The pixel in A2 is the previous one of the same row (a row's first pixel finds A2 empty); S_{k-1} is complete
+  // for a row's first pixel (T takes it once the previous row's last pixel has left A0: that pixel's last S write
+  // and finTop come no later than this pixel's AK read).
   val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
-  val rnRaw = rMem(addr(inA1.sl.r, inA1.cls))
-  // A2 writes its old top's size now (a push): S_k[rn] is that size when rn is that top
-  val sFwd = inA2v && inA2.p.newRun && !inA2.p.rowStart && topAny && rnRaw === top
+  val rnRaw = Mux(a2RWrite && inA2.p.sl.r === inA1.sl.r && inA2.p.cls === inA1.cls, a2PushTop, rWordA)
+  val mWord = sTab.read(1, addr(inA1.sl.s, rnRaw))
   inA2v := inA1v
   inA2.p := inA1
   inA2.rv := rvRead(inA1.sl.r, inA1.cls)
   inA2.rn := rnRaw
-  val sPrevVal = readS(inA1.sl.sPrev, inA1.cls)
-  val mSizeVal = Mux(sFwd, topSize, sMem(addr(inA1.sl.s, rnRaw)))
-  inA2.sPrev := sPrevVal
-  inA2.mSize := mSizeVal
+  inA2.sPrev := finS(inA1.sl.sPrev, inA1.cls, sPrevWord)
   // the next top is one of the current top, the node of the pixel in A2 or its rn: compare rn with each now
   inA2.eqT := rnRaw === top; inA2.eqN := rnRaw === inA2.p.node; inA2.eqR := rnRaw === inA2.rn
   inA2.hitPre := inA2v && inA2.p.cls === inA1.cls
@@ -389,14 +430,16 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // are formed beside the decision, which only selects.
   val v = q.valid.asUInt
   val newSize = Mux(q.newRun,
-    Mux(touchNew, satAdd(1.U(sW.W), inA2.sPrev), Mux(touchOld, Mux(mIsTop, satAdd(topSize, v), satAdd(1.U(sW.W), inA2.mSize)), 1.U(sW.W))),
-    Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, satAdd(topSize +& inA2.mSize, v), satAdd(topSize, v))))
+    Mux(touchNew, satAdd(1.U(sW.W), inA2.sPrev), Mux(touchOld, Mux(mIsTop, satAdd(topSize, v), satAdd(1.U(sW.W), mWord)), 1.U(sW.W))),
+    Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, satAdd(topSize +& mWord, v), satAdd(topSize, v))))
   topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
   lastTouchNew := inA2v && touchNew
+  a2RWrite := inA2v && touchNew
+  a2PushTop := pushTop
   when(inA2v) {
-    when(q.newRun && topAnyBase) { sMem.write(addr(aS, top), topSize) } // the old top stops being the top
+    when(q.newRun && topAnyBase) { sTab.write(addr(aS, top), topSize) } // the old top stops being the top
     for ((r, b) <- rValid.zipWithIndex) when(aP === b.U && touchNew) { r := r | UIntToOH(q.cls, W) }
-    when(touchNew) { rMem.write(addr(aP, q.cls), pushTop) }
+    when(touchNew) { rTab.write(addr(aP, q.cls), pushTop) }
     when(q.newRun || touchOld) { pWen := true.B; pWAddr := addr(aP, pushTop); pWData := Mux(touchOld, rn, pushTop) }
     top := newTop
     topSize := newSize
@@ -421,42 +464,57 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val hit2 = RegNext(pwEn && pwAddr === next, false.B)
     Mux(hit1, pwData, Mux(hit2, RegNext(pwData), pMem.read(next)))
   }
-  bComputed := Mux(bx === 0.U, 0.U, Mux(bPx === bx(idW - 1, 0), bPx, kMem(addr(bKslot, bPx))))
+  // B1 (node bx): P_k[bx] is here; K_k[P_k[bx]] is read. B2 (node b2x, a cycle later) computes and writes K_k[b2x];
+  // P_k[x] < x, so the read sees B2's write of node x - 1 made in the same cycle.
+  val kWordB = kTab.read(1, addr(bKslot, bPx))
+  val b2Px = RegNext(bPx)
+  b2v := bActive && bx < bN
+  b2x := bx(idW - 1, 0); b2Slot := bKslot
+  bComputed := Mux(b2x === 0.U, 0.U, Mux(b2Px === b2x, b2Px, kWordB))
+  when(b2v) { kTab.write(addr(b2Slot, b2x), bComputed) }
   when(bActive) {
-    when(bx < bN) { kMem.write(addr(bKslot, bx(idW - 1, 0)), bComputed) }
     when(bx + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
       .otherwise { bBusy := true.B; bxN := bx + 1.U }
   }
 
-  // ===== C: forward map F_k for the nodes of row k - 1, in two steps =====
-  // C0 reads the class of node x (K_{k-1}), C1 its entry (R_k, S_{k-1}) and writes F_k[x]. C may start while row
-  // k's last pixel is in A2 (C1 reads R_k a cycle later). The row ends (cNext, C's slots) when C1 writes the last
-  // entry; C0 starts the next row a clock later.
+  // ===== C: forward map F_k for the nodes of row k - 1, in three steps =====
+  // C0 reads the class of node x (K_{k-1}), C1 reads its entry (R_k, S_{k-1}, the touched flag), C2 writes F_k[x].
+  // C may start while row k's last pixel is in A2 (C1 reads R_k a cycle later) and once B1 has finished row k - 1
+  // (C0's read then sees B2's last K write). The row ends (cNext, C's slots) when C2 writes the last entry; C0 starts
+  // the next row a clock later, so C's slots stay fixed while a row is in its steps.
   val cx = Reg(UInt((idW + 1).W))
   val cFirst = RegInit(true.B) // sequence 0 has no row before it
   val cPrevN = RegNext(Mux(cIncW, metaN(cD.cur), Mux(cFirst, 0.U, metaN(cD.prev))), 0.U) // N of row cNext - 1
-  val c1v = RegInit(false.B)
-  val c1x = Reg(UInt(idW.W)); val c1Class = Reg(UInt(idW.W))
+  val c1v = RegInit(false.B); val c1Last = RegInit(false.B)
+  val c1x = Reg(UInt(idW.W))
   // row cNext is labelled (aNext >= cNext + 1, or its last pixel is in A2), bNext >= cNext, dDone + NF >= cNext + 1
-  val cCanStart = !cBusy && !c1Last && (dCA <= -1.S || dCA === 0.S && aLastInA2) && dCB <= 0.S && dDC >= (1 - NF).S
+  val cCanStart = !cBusy && !c1Last && !c2Last && (dCA <= -1.S || dCA === 0.S && aLastInA2) && dCB <= 0.S &&
+    dDC >= (1 - NF).S
   val cActive = cBusy || cCanStart
   val cxEff = Mux(cBusy, cx, 0.U)
   c1v := cActive && cxEff < cPrevN
   c1Last := cActive && cxEff + 1.U >= cPrevN
   c1x := cxEff(idW - 1, 0)
-  c1Class := kMem(addr(c3.prev, cxEff(idW - 1, 0)))
+  val c1Class = kTab.read(2, addr(c3.prev, cxEff(idW - 1, 0)))
   when(cActive) {
     when(cxEff + 1.U >= cPrevN) { cBusy := false.B }.otherwise { cBusy := true.B; cx := cxEff + 1.U }
   }
   val cRbuf = c2.cur
   val cSbuf = c3.prev
-  val cOpen = rvRead(cRbuf, c1Class)
-  val cEntry = Mux(cOpen, Cat(0.U(1.W), rMem(addr(cRbuf, c1Class)).pad(fW)),
-    Cat(1.U(1.W), readS(cSbuf, c1Class).pad(fW)))
-  when(c1v) {
-    for ((m, b) <- fMaps.zipWithIndex) when(cF.cur === b.U) { m.write(c1x, cEntry) }
+  // C1
+  val rWordC = rTab.read(1, addr(cRbuf, c1Class))
+  val sWordC = sTab.read(2, addr(cSbuf, c1Class))
+  val c2v = RegNext(c1v, false.B)
+  c2Last := c1Last
+  val c2x = RegNext(c1x)
+  val c2Open = RegNext(rvRead(cRbuf, c1Class))
+  val c2Fin = RegNext(finAny(cSbuf) && finTop(cSbuf) === c1Class)
+  // C2
+  val cEntry = Mux(c2Open, Cat(0.U(1.W), rWordC.pad(fW)), Cat(1.U(1.W), Mux(c2Fin, finSize(cSbuf), sWordC).pad(fW)))
+  when(c2v) {
+    for ((m, b) <- fMaps.zipWithIndex) when(cF.cur === b.U) { m.write(c2x, cEntry) }
   }
-  when(c1Last) { cNext := cNext + 1.U; cIncW := true.B; cFirst := false.B; cD.inc(); c2.inc(); c3.inc(); cF.inc() }
+  when(c2Last) { cNext := cNext + 1.U; cIncW := true.B; cFirst := false.B; cD.inc(); c2.inc(); c3.inc(); cF.inc() }
 
   // ===== D: output chain =====
   class Beat extends Bundle {
@@ -562,8 +620,9 @@ object PostProcessSpeckle {
   def mapRows(p: ElasParams): Int = p.speckleWindowRows + 2
   def idBits(p: ElasParams): Int = log2Ceil(p.maxWidth)
   def sizeBits(p: ElasParams): Int = log2Ceil(p.speckleSize + 1) max 1
-  /** Rows of latency (input row -> output row) in the steady state. */
-  def latencyRows(p: ElasParams): Int = p.speckleWindowRows + 2
+  /** Rows of latency (input row -> output row): L + 2 rows of W, plus the 2 clocks per row the engines take beyond
+    * W, which add up to 2 maxHeight clocks over a frame taken at full rate. */
+  def latencyRows(p: ElasParams): Int = p.speckleWindowRows + 2 + (2 * p.maxHeight + p.maxWidth - 1) / p.maxWidth
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = {
     val (w, idW, sW) = (p.maxWidth, idBits(p), sizeBits(p))
@@ -575,9 +634,11 @@ object PostProcessSpeckle {
       MemoryUse("Speckle", "fmaps", mapRows(p) * w, 1 + math.max(idW, sW),
         "(L + 2) rows x maxWidth forward maps; one SyncReadMem per row, 2 read ports (block RAM)"),
       MemoryUse("Speckle", "P", 2 * w, idW, "merge parents (2 rows); SyncReadMem 1R1W (block RAM), read by B"),
-      MemoryUse("Speckle", "K/R", (3 + 2) * w, idW,
-        "flat classes (3 rows), class -> node (2); Mem (LUT-RAM), read combinationally (A0, A1, B, C)"),
-      MemoryUse("Speckle", "S", 3 * w, sW, "saturating segment sizes, 3 rows; Mem (LUT-RAM)"),
+      MemoryUse("Speckle", "K", 3 * 3 * w, idW,
+        "flat classes, 3 rows; one SyncReadMem 1R1W (block RAM) per reader (A0, B1, C0)"),
+      MemoryUse("Speckle", "R", 2 * 2 * w, idW, "class -> node, 2 rows; one SyncReadMem 1R1W per reader (AK, C1)"),
+      MemoryUse("Speckle", "S", 3 * 3 * w, sW,
+        "saturating segment sizes, 3 rows; one SyncReadMem 1R1W per reader (AK, A1, C1)"),
       MemoryUse("Speckle", "Rvalid", 2, w, "touched-class flags (registers)"))
   }
 }
