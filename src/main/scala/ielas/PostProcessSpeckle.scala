@@ -458,7 +458,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val bKslot = b3.cur
   val bN = bD.regRead2(metaN)
   val bPx = {
-    val next = addr(b2.next, bxN(idW - 1, 0))
+    // the node B1 holds next cycle: bx + 1 while busy (after a row's last node, nothing), node 1 of its slot while
+    // idle (the node after the one a start does), so the address does not wait for the start decision
+    val next = addr(b2.cur, Mux(bBusy, bx(idW - 1, 0) + 1.U, 1.U))
     // forwarded: the request of this cycle and the one being written (neither is in the word read)
     val hit1 = RegNext(pWen && pWAddr === next, false.B)
     val hit2 = RegNext(pwEn && pwAddr === next, false.B)
