@@ -281,6 +281,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val bCanStart = !bBusy && (dAB >= 1.S || dAB === 0.S && aLastInA2) && dCB >= -1.S
   val bActive = bBusy || bCanStart
   val bComputed = Wire(UInt(idW.W)) // B2's K entry of this cycle
+  val b1v = Wire(Bool()) // B1 holds a node of its row (B2 writes it next cycle)
   val b2v = RegInit(false.B) // B2 computes and writes K_k[b2x] now
   val b2x = Reg(UInt(idW.W)); val b2Slot = Reg(UInt(2.W))
 
@@ -374,8 +375,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // pixel on B works on row k - 1 (one node per clock, never stalling; T took the second pixel no earlier than B1's
   // first cycle on the row) or is past it: the word read in A0 holds K_{k-1}[upId], or B2 computes it now (bypass).
   // While a pixel of row k is in AK, B cannot have started row k, so B2 is on row k - 1 or done with it.
-  val cls = Mux(inAK.upId === 0.U, 0.U,
-    Mux(b2v && b2Slot === inAK.sl.sPrev && b2x === inAK.upId, bComputed, kWordA))
+  // the compares are made a cycle earlier (in A0, against B1: B2 holds next cycle what B1 holds now)
+  val cls = Mux(RegNext(upId === 0.U), 0.U, Mux(RegNext(b1v && b3.cur === inA0.sl.sPrev &&
+    bx === upId, false.B), bComputed, kWordA))
   val rWordA = rTab.read(0, addr(inAK.sl.r, cls))
   val sPrevWord = sTab.read(0, addr(inAK.sl.sPrev, cls))
   inA1v := inAKv
@@ -470,9 +472,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // P_k[x] < x, so the read sees B2's write of node x - 1 made in the same cycle.
   val kWordB = kTab.read(1, addr(bKslot, bPx))
   val b2Px = RegNext(bPx)
-  b2v := bActive && bx < bN
+  b1v := bActive && bx < bN
+  b2v := b1v
   b2x := bx(idW - 1, 0); b2Slot := bKslot
-  bComputed := Mux(b2x === 0.U, 0.U, Mux(b2Px === b2x, b2Px, kWordB))
+  // x = 0 and P_k[x] = x decided in B1 (registers into B2's multiplexer)
+  bComputed := Mux(RegNext(bx === 0.U), 0.U, Mux(RegNext(bPx === bx(idW - 1, 0)), b2Px, kWordB))
   when(b2v) { kTab.write(addr(b2Slot, b2x), bComputed) }
   when(bActive) {
     when(bx + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
@@ -549,8 +553,12 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dVirt = dD.regRead(metaVirtual); val dFirst = dD.regRead(metaFirst); val dLast = dD.regRead(metaLast)
   val dLen = dD.regRead(metaLen); val dWd = dD.regRead(metaW); val dWm1 = dD.regRead(metaWm1)
   val dReady = dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext) // aNext >= dNext + 1, cNext >= dNext + n + 1
-  val word = delay.read(addr(dD.next, dColN)) // one cycle ahead: the row and column D holds next cycle
   val issue = dReady && advance
+  // read one cycle ahead, at the row and column D holds next cycle: both candidates come from registers and the
+  // issue decision only picks one (it stays off the slot x W + column adder)
+  val dAddrNow = addr(dD.cur, dCol)
+  val dAddrOn = Mux(dVirt || dCol === dWm1, addr(dD.succ, 0.U), dAddrNow + 1.U)
+  val word = delay.read(Mux(issue, dAddrOn, dAddrNow))
   val s0 = Wire(Valid(new Beat))
   s0.valid := issue
   s0.bits.tgt := UIntToOH(dF.succ, NF)
