@@ -10,6 +10,7 @@ import argparse
 import csv
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -145,6 +146,11 @@ def plots(rows, outdir, prefix=""):
     return made
 
 
+def c1(r):
+    """A point of the card grid (one pixel per clock), not one of the cyclesPerPixel twins (`<point>-c<N>`)."""
+    return re.search(r"-c\d+$", r["point"]) is None
+
+
 def how_to_choose(rows, provisional):
     """A paragraph from the measured numbers (deltas across the grid), marked while the top is incomplete."""
     by = {r["point"]: r for r in rows}
@@ -156,8 +162,9 @@ def how_to_choose(rows, provisional):
         units = dict(item.rsplit(":", 1) for item in k["lut_by_unit"].split())
         sad = sum(float(v) for u, v in units.items() if u.split("*")[0] == "DescriptorSad")
         if sad:
-            lead.append(f"dispMax sets the size: at kitti-d255-s20-w5 the DescriptorSad units (all disparities of "
-                        f"both views in the dense stage, the support lanes) are {100 * sad / num(k, 'LUT'):.0f} % of "
+            lead.append(f"the SAD lanes set the size: at kitti-d255-s20-w5 the DescriptorSad units "
+                        f"(quarter-descriptor SADs of the support lanes, which grow with dispMax, and of the dense "
+                        f"candidate lanes, which grow with storedDisparities) are {100 * sad / num(k, 'LUT'):.0f} % of "
                         f"the LUTs")
     series = [by.get(f"kitti-d{d}-s20-w5") for d in (63, 127, 255)]
     if all(r and num(r, "LUT") is not None for r in series):
@@ -166,7 +173,8 @@ def how_to_choose(rows, provisional):
     if lead:
         out.append("- **What costs what**: " + "; ".join(lead) + ". Pick the smallest dispMax that covers the "
                    "scene's largest disparity (the accuracy columns show when a range is too short), then "
-                   "storedDisparities and the window by the deltas below: they cost far less than dispMax.")
+                   "storedDisparities (it sets the dense lanes and their block RAM) and the window by the deltas "
+                   "below, then cyclesPerPixel by the frame rate needed.")
     s20 = {res: [r for r in (by.get(f"{res}-d{d}-s20-w5") for d in (63, 127, 255)) if r] for res in ("kitti", "tsukuba")}
     fits = []
     for res, pts in s20.items():
@@ -183,12 +191,24 @@ def how_to_choose(rows, provisional):
     levels = [(num(r, "lut_levels"), r["point"]) for r in rows if num(r, "lut_levels") is not None]
     if levels:
         lo, hi = min(levels), max(levels)
+        span = (f"{fmt(hi[0])} LUT levels at every point" if lo[0] == hi[0] else
+                f"{fmt(lo[0])} to {fmt(hi[0])} LUT levels ({hi[1]} the deepest)")
         out.append(f"- **Clock**: the fps column is the cycle model at an assumed 200 MHz, not a measured clock. The "
-                   f"LUT lvl column is the logic-depth estimate: {fmt(lo[0])} to {fmt(hi[0])} LUT levels ({hi[1]} the "
-                   "deepest), where a 5 ns period leaves room for roughly 5-8 levels of LUT and routing on a 7-series "
+                   f"LUT lvl column is the logic-depth estimate: {span}, where a 5 ns period leaves room for roughly 5-8 levels of LUT and routing on a 7-series "
                    "part (a rule of thumb). Measured clocks are in docs/timing.md (`make timing`): each stage placed "
                    "and routed on its own on an ECP5 LFE5U-85F with nextpnr, and a logic-only Yosys `sta` for the "
                    "7-series mapping.")
+    for named in ("kitti-d255-s20-w5", "tsukuba-d127-s20-w5"):
+        knob = [(c, by.get(named if c == 1 else f"{named}-c{c}")) for c in (1, 2, 4, 8)]
+        knob = [(c, r) for c, r in knob if r and num(r, "LUT") is not None]
+        if len(knob) > 1:
+            out.append(f"- **cyclesPerPixel** at {named}, c = " + " / ".join(str(c) for c, _ in knob) +
+                       ": slice LUTs " + " / ".join(fmt(num(r, "LUT") + (num(r, "LUTRAM_sites") or 0)) for _, r in knob) +
+                       ", FF " + " / ".join(fmt(r["FF"]) for _, r in knob) +
+                       ", BRAM36eq " + " / ".join(fmt(r["BRAM36eq"]) for _, r in knob) +
+                       ", fps at an assumed 200 MHz " + " / ".join(fmt(r["fps_200MHz"]) for _, r in knob) +
+                       "; the lanes shrink with c, the rest of the design (post-processing, the pixel band, the "
+                       "descriptor and grid stages) does not. Accuracy does not depend on c.")
     for res, pts in s20.items():
         pts = [r for r in pts if num(r, "BRAM36eq") is not None and num(r, "LUTRAM_sites") is not None]
         for a, b in zip(pts, pts[1:]):
@@ -227,9 +247,9 @@ def how_to_choose(rows, provisional):
         acc = []
         for pset in grid.PARAMETER_SETS:
             k = f"{pset}_bad3"
-            ds = sorted((int(r["dispMax"]), num(r, k)) for r in rows if r["resolution"] == res
+            ds = sorted((int(r["dispMax"]), num(r, k)) for r in rows if r["resolution"] == res and c1(r)
                         and r["storedDisparities"] == "20" and r["windowSize"] == "5" and num(r, k) is not None)
-            ss = sorted((int(r["storedDisparities"]), num(r, k)) for r in rows if r["resolution"] == res
+            ss = sorted((int(r["storedDisparities"]), num(r, k)) for r in rows if r["resolution"] == res and c1(r)
                         and r["dispMax"] == str(dnamed) and r["windowSize"] == "5" and num(r, k) is not None)
             if ds:
                 lo = min(v for _, v in ds)
@@ -243,7 +263,7 @@ def how_to_choose(rows, provisional):
                            f"{dnamed} (" + ", ".join(f"s{x} {v:.2f}" for x, v in ss) + ")")
         if acc:
             out.append(f"  Accuracy ({res}, golden model, final for these configurations): " + "; ".join(acc) + ".")
-        best = [r for r in rows if r["resolution"] == res and num(r, "robotics_bad3") is not None]
+        best = [r for r in rows if r["resolution"] == res and c1(r) and num(r, "robotics_bad3") is not None]
         if best:
             for pset in grid.PARAMETER_SETS:
                 b = min(best, key=lambda r: num(r, f"{pset}_bad3"))

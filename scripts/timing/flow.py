@@ -8,6 +8,7 @@ usage: flow.py --config NAME --verilog DIR [--out DIR] [--cache DIR] [--doc FILE
 Writes OUT/timing.json, OUT/timing.md and the page FILE (docs/timing.md). docs/timing.md explains the numbers.
 """
 import argparse
+import copy
 import datetime
 import json
 import os
@@ -430,7 +431,9 @@ def markdown(report):
         "",
         f"ECP5 target {report['target_mhz']:g} MHz. Sorted as the top instantiates the stages; the last row is the "
         "whole accelerator. A stage too large to place and route in reasonable time (`PostProcess`, see "
-        "`TIMING_EXPAND`) is followed by its own submodules, each placed on its own in the same wrapper.",
+        "`TIMING_EXPAND`) is followed by its own submodules, each placed on its own in the same wrapper. A stage that "
+        "does not fit the part at this configuration is followed by a row of the same stage generated for a smaller "
+        "named configuration where it fits (`TIMING_ALSO`, column `placed at`).",
         "",
         "| module | inst | placed at | LUT levels | STA ns (7-series, logic only) | ECP5 fmax MHz | ECP5 critical path "
         "(start -> end) | TRELLIS_COMB | FF | DP16KD | MULT18X18D | wrapper FF | wall s |",
@@ -458,7 +461,7 @@ def markdown(report):
         slow = min(ok, key=lambda r: r["ecp5"]["fmax_mhz"])
         fast = [r["module"] for r in ok if r["ecp5"]["fmax_mhz"] >= report["target_mhz"]]
         deep = max((r for r in report["rows"] if r["xc7"].get("status") == "ok"), key=lambda r: r["xc7"]["lut_levels"])
-        out += ["", f"Placed and routed: {len(ok)} of {len(report['rows'])} modules. The slowest routed module is "
+        out += ["", f"Placed and routed: {len(ok)} of {len(report['rows'])} rows. The slowest routed module is "
                 f"`{slow['module']}` at {slow['ecp5']['fmax_mhz']:.1f} MHz; at or above {report['target_mhz']:g} MHz: "
                 f"{', '.join('`' + m + '`' for m in fast) or 'none'}. The deepest logic is `{deep['module']}` "
                 f"({deep['xc7']['lut_levels']} LUT levels, {deep['xc7']['sta']['delay_ns']:.1f} ns before routing)."]
@@ -572,6 +575,9 @@ def main():
                     help="run no tool: report what the cache holds (a module without a cached result is 'not run')")
     ap.add_argument("--timeout", type=int, default=3600, help="wall-clock limit per tool run, seconds")
     ap.add_argument("--mem-mb", type=int, default=12000, help="address-space limit of each Yosys 0.23 run")
+    ap.add_argument("--also", action="append", default=[], metavar="CONFIG:MODULE,MODULE",
+                    help="also place these modules at another configuration (Verilog in build/verilog/CONFIG), each "
+                    "a row of its own after the module's row: for a module that does not fit the part at --config")
     args = ap.parse_args()
     args.out = args.out or os.path.join("build", "timing", args.config)
     start = time.time()
@@ -630,7 +636,27 @@ def main():
             took = "cached" if e["cached"] else f"{sum(e['seconds'].values()):.0f} s"
             print(f"timing: {module}: ECP5 fmax {fm} ({took})",
                   flush=True)
-        report["rows"] = sorted(done, key=lambda r: order[r["module"]])
+        # Rows at other configurations (--also): the same module placed where it fits the part.
+        for spec in args.also:
+            cfg, _, mods = spec.partition(":")
+            other = copy.copy(args)
+            other.config, other.out = cfg, os.path.join("build", "timing", cfg)
+            other_design = verilog_modules.Design(os.path.join("build", "verilog", cfg))
+            for module in [m for m in mods.split(",") if m]:
+                if module not in other_design.file_of:
+                    raise FlowError(f"--also {spec}: module {module} not found in build/verilog/{cfg}")
+                print(f"timing: {module} at {cfg}: 7-series synthesis + sta, ECP5 synth + place and route ...",
+                      flush=True)
+                x = guarded(other_design, module, "xc7", salt_x, other, xc7_run)
+                e = guarded(other_design, module, "ecp5", salt_e, other, ecp5_run)
+                n = dict(rows).get(module, 1)
+                done.append({"module": module, "instances": n, "is_top": module == args.top, "xc7": x, "ecp5": e,
+                             "cached": x["cached"] and e["cached"], "also": cfg,
+                             "wall_seconds": x.get("seconds", 0) + sum(e.get("seconds", {}).values()),
+                             "seconds_this_run": 0})
+                order.setdefault(module, len(order))
+                print(f"timing: {module} at {cfg}: ECP5 fmax {ecp5_cells(e)[0]}", flush=True)
+        report["rows"] = sorted(done, key=lambda r: (order[r["module"]], bool(r.get("also"))))
         report["wall_seconds"] = round(time.time() - start, 1)
         os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, "timing.json"), "w") as fh:

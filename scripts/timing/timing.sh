@@ -4,7 +4,8 @@
 # Environment: TIMING_MODULES=A,B (some stages only), TIMING_TOP=0 (no whole-top row), TIMING_FREQ (MHz, 200),
 #              TIMING_TIMEOUT (s per tool run, 3600), TIMING_DOC (page to write, docs/timing.md; empty = none),
 #              TIMING_CACHE (build/timing/cache), TIMING_FIRST=A,B (run these modules first; default: smallest first),
-#              TIMING_EXPAND=A,B (stages whose submodules get rows of their own; default PostProcess).
+#              TIMING_EXPAND=A,B (stages whose submodules get rows of their own; default PostProcess),
+#              TIMING_ALSO="CONFIG:A,B ..." (also place A and B at CONFIG, Verilog in build/verilog/CONFIG).
 set -euo pipefail
 cd "$(dirname "$0")/../.."   # the repository root: the WebAssembly tools only see files below their directory
 
@@ -31,4 +32,5 @@ args=(--config "$name" --verilog "$verilog" --venv "$VENV"
 [ "${TIMING_TOP:-1}" = 0 ] && args+=(--no-top)
 [ -n "${TIMING_FIRST:-}" ] && args+=(--first "$TIMING_FIRST")
 args+=(--expand "${TIMING_EXPAND-PostProcess}")
+for also in ${TIMING_ALSO:-}; do args+=(--also "$also"); done
 exec python3 scripts/timing/flow.py "${args[@]}"
