@@ -488,7 +488,9 @@ def markdown(report):
             spath = "–"
         cp = e.get("critical_path") or {}
         split = f"{cp['logic_ns']:.2f} + {cp['routing_ns']:.2f}" if cp and e.get("status") == "ok" else "–"
-        out.append(f"| `{r['module']}` | {spath} | {split} | {fmt(cp.get('steps')) if e.get('status') == 'ok' else '–'} |")
+        at = f" (at {r['also']})" if r.get("also") else ""
+        out.append(f"| `{r['module']}`{at} | {spath} | {split} | "
+                   f"{fmt(cp.get('steps')) if e.get('status') == 'ok' else '–'} |")
     out += ["", "## Notes", ""]
     for r in report["rows"]:
         warns = (r["xc7"].get("sta") or {}).get("warnings") or []
