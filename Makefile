@@ -154,11 +154,17 @@ synth: check-inputs deps-synth ## Yosys resource table for one configuration
 	scripts/synth.sh $(CONFIG) $(VERILOG_DIR)
 
 timing: CONFIG = small
-# Stages that do not fit the LFE5U-85F at CONFIG, placed again at a named configuration where they do.
-TIMING_ALSO ?= $(if $(filter small,$(CONFIG)),small-c4:DenseMatcher)
+# Modules that do not fit the LFE5U-85F at CONFIG, placed again where they do (CONFIG:MODULE,...): at a named
+# configuration, or at one derived from a named one (TIMING_DERIVE, NAME:BASE:KEY=VALUE as `sbt "run config"` takes
+# it; written to build/configs-extra/NAME.json). At small: the dense matcher at small-c4, the whole top at small-w3
+# with cyclesPerPixel 8 (81 % of the part's LUT4s; small itself needs more than the part has).
+TIMING_DERIVE ?= $(if $(filter small,$(CONFIG)),small-w3-c8:small-w3:cyclesPerPixel=8)
+TIMING_ALSO ?= $(if $(filter small,$(CONFIG)),small-c4:DenseMatcher small-w3-c8:IElas)
 timing: deps-synth ## ECP5 post-route fmax and 7-series logic-only STA per stage (CONFIG default small) -> docs/timing.md
 	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
-	@for c in $(foreach a,$(TIMING_ALSO),$(firstword $(subst :, ,$(a)))); do $(MAKE) --no-print-directory verilog CONFIG=$$c || exit 1; done
+	@for d in $(TIMING_DERIVE); do $(call SBT_RUN,"run config $(CURDIR)/build/configs-extra $$d") || exit 1; done
+	@for c in $(foreach a,$(TIMING_ALSO),$(firstword $(subst :, ,$(a)))); do j=build/configs-extra/$$c.json; \
+	  $(MAKE) --no-print-directory verilog CONFIG=$$(if [ -f $$j ]; then echo $(CURDIR)/$$j; else echo $$c; fi) || exit 1; done
 	TIMING_ALSO='$(TIMING_ALSO)' scripts/timing/timing.sh $(CONFIG) $(VERILOG_DIR)
 
 # ---- parameter sweep (docs/sweep.md; scripts/sweep.sh, scripts/sweep/) ----
