@@ -599,7 +599,9 @@ def main():
         tools = tool_versions(args.venv)
         only = [m for m in args.modules.split(",") if m]
         rows = modules_of(design, args.top, only, [m for m in args.expand.split(",") if m])
-        if not args.no_top:
+        # The whole top at --config, unless --also places it elsewhere (it does not fit the part at --config).
+        top_elsewhere = any(args.top in spec.partition(":")[2].split(",") for spec in args.also)
+        if not args.no_top and not top_elsewhere:
             rows.append((args.top, 1))
         salt_x = f"{synth_flow.SYNTH_CMD}|{tools['yosys_xc7']}"
         salt_e = (f"{wrapper.WRAPPER_VERSION}|{tools['pip']}|{' '.join(DEVICE['nextpnr_args'])}|{args.freq:g}|"
