@@ -194,8 +194,8 @@ def how_to_choose(rows, provisional):
         span = (f"{fmt(hi[0])} LUT levels at every point" if lo[0] == hi[0] else
                 f"{fmt(lo[0])} to {fmt(hi[0])} LUT levels ({hi[1]} the deepest)")
         out.append(f"- **Clock**: the fps column is the cycle model at an assumed 200 MHz, not a measured clock. The "
-                   f"LUT lvl column is the logic-depth estimate: {span}, where a 5 ns period leaves room for roughly 5-8 levels of LUT and routing on a 7-series "
-                   "part (a rule of thumb). Measured clocks are in docs/timing.md (`make timing`): each stage placed "
+                   f"LUT lvl column is the logic-depth estimate: {span}, where a 5 ns period leaves room for roughly "
+                   "5-8 levels of LUT and routing on a 7-series part (a rule of thumb). Measured clocks are in docs/timing.md (`make timing`): each stage placed "
                    "and routed on its own on an ECP5 LFE5U-85F with nextpnr, and a logic-only Yosys `sta` for the "
                    "7-series mapping.")
     for named in ("kitti-d255-s20-w5", "tsukuba-d127-s20-w5"):

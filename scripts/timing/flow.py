@@ -433,7 +433,8 @@ def markdown(report):
         "whole accelerator. A stage too large to place and route in reasonable time (`PostProcess`, see "
         "`TIMING_EXPAND`) is followed by its own submodules, each placed on its own in the same wrapper. A stage that "
         "does not fit the part at this configuration is followed by a row of the same stage generated for a smaller "
-        "named configuration where it fits (`TIMING_ALSO`, column `placed at`).",
+        "configuration where it fits (`TIMING_ALSO`; a named configuration or one derived from a named one by "
+        "`TIMING_DERIVE`; column `placed at`).",
         "",
         "| module | inst | placed at | LUT levels | STA ns (7-series, logic only) | ECP5 fmax MHz | ECP5 critical path "
         "(start -> end) | TRELLIS_COMB | FF | DP16KD | MULT18X18D | wrapper FF | wall s |",
@@ -558,6 +559,18 @@ def markdown(report):
     return "\n".join(out)
 
 
+def timing_row(module, instances, is_top, x, e, also=None):
+    """One row of the page: a module's 7-series and ECP5 results (`also`: the configuration it was placed at instead
+    of --config)."""
+    run_s = (0 if x["cached"] else x.get("seconds", 0)) + (0 if e["cached"] else sum(e["seconds"].values()))
+    row = {"module": module, "instances": instances, "is_top": is_top, "xc7": x, "ecp5": e,
+           "cached": x["cached"] and e["cached"], "seconds_this_run": run_s,
+           "wall_seconds": x.get("seconds", 0) + sum(e.get("seconds", {}).values())}
+    if also:
+        row["also"] = also
+    return row
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--config", required=True)
@@ -631,11 +644,7 @@ def main():
             print(f"timing: {module}: ECP5 synth + place and route ...", flush=True)
             x = xres[module]
             e = guarded(design, module, "ecp5", salt_e, args, ecp5_run)
-            run_s = (0 if x["cached"] else x.get("seconds", 0)) + (0 if e["cached"] else sum(e["seconds"].values()))
-            recorded = x.get("seconds", 0) + sum(e.get("seconds", {}).values())
-            row = {"module": module, "instances": n, "is_top": module == args.top, "xc7": x, "ecp5": e,
-                   "cached": x["cached"] and e["cached"], "wall_seconds": recorded, "seconds_this_run": run_s}
-            done.append(row)
+            done.append(timing_row(module, n, module == args.top, x, e))
             fm, _ = ecp5_cells(e)
             took = "cached" if e["cached"] else f"{sum(e['seconds'].values()):.0f} s"
             print(f"timing: {module}: ECP5 fmax {fm} ({took})",
@@ -653,11 +662,7 @@ def main():
                       flush=True)
                 x = guarded(other_design, module, "xc7", salt_x, other, xc7_run)
                 e = guarded(other_design, module, "ecp5", salt_e, other, ecp5_run)
-                n = dict(rows).get(module, 1)
-                done.append({"module": module, "instances": n, "is_top": module == args.top, "xc7": x, "ecp5": e,
-                             "cached": x["cached"] and e["cached"], "also": cfg,
-                             "wall_seconds": x.get("seconds", 0) + sum(e.get("seconds", {}).values()),
-                             "seconds_this_run": 0})
+                done.append(timing_row(module, dict(rows).get(module, 1), module == args.top, x, e, also=cfg))
                 order.setdefault(module, len(order))
                 print(f"timing: {module} at {cfg}: ECP5 fmax {ecp5_cells(e)[0]}", flush=True)
         report["rows"] = sorted(done, key=lambda r: (order[r["module"]], bool(r.get("also"))))
