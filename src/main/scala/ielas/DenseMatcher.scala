@@ -35,7 +35,9 @@ import chisel3.util._
   * holds all candidates; the owner is the highest-indexed covering triangle, and an uncovered pixel takes the
   * carried owner of the nearest covered pixel to its left (a row whose pixel 0 is uncovered has no covered pixel at
   * all and takes the cell row's last triangle). A primer computes the first K-1 cells of the next row into shadow
-  * registers while the current row runs (one cell per clock), so row starts cost no cycles.
+  * registers while the current row runs (one cell per clock, in two register steps: corner read and subtractions,
+  * then products and order), so row starts cost no cycles; the cell a shift brings in is read at the pixel before
+  * the shift, so the window shift too has only the products between registers.
   *   raster registers = 2 (window + shadow) x K x (1 + 4 spanBits)   (right view only)   (K = 9 at small, 53 at kitti)
   *
   * '''Row banks''' (memories, combinational read ports; written by the loaders, tagged with frame parity and row):
@@ -177,19 +179,35 @@ class DenseMatcher(p: ElasParams) extends Module {
     val lo = Vec(2, SInt(spanW.W))
     val hi = Vec(2, SInt(spanW.W))
   }
-  def cellSpan(cc: UInt, exists: Bool, corners: Vec[UInt], up: UInt, down: UInt): Span = {
-    val s = Wire(new Span)
+  /** A cell's corner offsets x - s (x0, x1 its left and right column, s its corner disparities): the first register
+    * step of a span, whose memory read and subtractions stay off the products (see [[spanOf]]).
+    */
+  class Cuts extends Bundle {
+    val valid = Bool()
+    val tl = SInt((colW + 4).W)
+    val tr = SInt((colW + 4).W)
+    val bl = SInt((colW + 4).W)
+    val br = SInt((colW + 4).W)
+  }
+  def cellCuts(cc: UInt, exists: Bool, corners: Vec[UInt]): Cuts = {
+    val c = Wire(new Cuts)
     val x0 = (cc * step.U).pad(colW + 2)(colW + 1, 0)
     val x1raw = x0 +& step.U
     val x1 = Mux(x1raw > width - 1.U, width - 1.U, x1raw)
-    s.valid := exists
-    val tl = x0.zext - corners(0).zext
-    val tr = x1.zext - corners(1).zext
-    val bl = x0.zext - corners(2).zext
-    val br = x1.zext - corners(3).zext
-    val e = tl * up.zext + bl * down.zext
-    val g = tr * up.zext + bl * down.zext
-    val f = tr * up.zext + br * down.zext
+    c.valid := exists
+    c.tl := x0.zext - corners(0).zext
+    c.tr := x1.zext - corners(1).zext
+    c.bl := x0.zext - corners(2).zext
+    c.br := x1.zext - corners(3).zext
+    c
+  }
+  /** The second step: e, g, f of row offset (up, down) and each triangle's ordered interval. */
+  def spanOf(c: Cuts, up: UInt, down: UInt): Span = {
+    val s = Wire(new Span)
+    s.valid := c.valid
+    val e = c.tl * up.zext + c.bl * down.zext
+    val g = c.tr * up.zext + c.bl * down.zext
+    val f = c.tr * up.zext + c.br * down.zext
     for ((t, (x, y)) <- Seq(0 -> (e, g), 1 -> (g, f))) {
       s.lo(t) := Mux(x < y, x, y)
       s.hi(t) := Mux(x < y, y, x)
@@ -328,7 +346,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   val pJ = RegInit(0.U(cellW.W))
   val pWaitFrame = RegInit(true.B)
   val pActive = RegInit(false.B)
-  when(pWaitFrame && sofPending && !shadowFull) {
+  val pIssued = RegInit(false.B) // all K-1 cells of the next row issued; cleared with the last write
+  when(pWaitFrame && sofPending && !shadowFull && !pIssued) {
     pWaitFrame := false.B
     pActive := true.B
     sofPending := false.B
@@ -339,13 +358,22 @@ class DenseMatcher(p: ElasParams) extends Module {
   val (pHit, pSel) = bankOf(planeFull, planeTag, pRow.fp, pRow.cr)
   val pCorners = readBank(cornerBanks, pSel, pJ, cellsMax)
   val (pH, pUp, pDown) = rowGeometry(pRow.cr, pRow.vIn)
-  val pSpan = cellSpan(pJ, pJ <= lastCell, pCorners, pUp, pDown)
-  when(pActive && !shadowFull && pHit) {
-    shadow(0) := noSpan
-    for (j <- 1 until K) when(pJ === (j - 1).U) { shadow(j) := pSpan }
+  // two register steps per cell: the issue reads the corners into p1 (cuts), the next cycle writes the span
+  val p1Valid = RegInit(false.B)
+  val p1J = Reg(UInt(cellW.W))
+  val p1Cuts = Reg(new Cuts)
+  val p1Up = Reg(UInt(inW.W))
+  val p1Down = Reg(UInt(inW.W))
+  p1Valid := false.B
+  when(pActive && !shadowFull && !pIssued && pHit) {
+    p1Valid := true.B
+    p1J := pJ
+    p1Cuts := cellCuts(pJ, pJ <= lastCell, pCorners)
+    p1Up := pUp
+    p1Down := pDown
     pJ := pJ + 1.U
     when(pJ === (K - 2).U) {
-      shadowFull := true.B
+      pIssued := true.B
       pJ := 0.U
       when(pRow.v === height - 1.U) {
         pActive := false.B
@@ -355,6 +383,15 @@ class DenseMatcher(p: ElasParams) extends Module {
         when(pRow.vIn === (step - 1).U && pRow.cr < lastCellRow) { pRow.cr := pRow.cr + 1.U; pRow.vIn := 0.U }
           .otherwise { pRow.vIn := pRow.vIn + 1.U }
       }
+    }
+  }
+  when(p1Valid) {
+    val pSpan = spanOf(p1Cuts, p1Up, p1Down)
+    shadow(0) := noSpan
+    for (j <- 1 until K) when(p1J === (j - 1).U) { shadow(j) := pSpan }
+    when(p1J === (K - 2).U) {
+      shadowFull := true.B
+      pIssued := false.B
     }
   }
 
@@ -370,10 +407,13 @@ class DenseMatcher(p: ElasParams) extends Module {
   val uh = a.uh.zext
 
   when(aFire && a.u === 0.U) { shadowFull := false.B }
-  // next window: shift by one cell when the next pixel enters the next cell
+  // next window: shift by one cell when the next pixel enters the next cell. The entering cell's cuts are read at
+  // the pixel before (every pixel that fires registers those of its own cu + K - 1): a shift happens at a cell's
+  // last pixel (uIn = step - 1 >= 1), so the pixel before it is in the same cell and row.
   val shiftCell = a.cu + (K - 1).U
-  val shiftCorners = readBank(cornerBanks, planeSel, shiftCell, cellsMax)
-  val shiftSpan = cellSpan(shiftCell, shiftCell <= lastCell, shiftCorners, aUp, aDown)
+  val shiftCuts = Reg(new Cuts)
+  when(aFire) { shiftCuts := cellCuts(shiftCell, shiftCell <= lastCell, readBank(cornerBanks, planeSel, shiftCell, cellsMax)) }
+  val shiftSpan = spanOf(shiftCuts, aUp, aDown)
   when(aFire && !rowEnd(a)) {
     when(nextCellCol(a)) {
       for (j <- 0 until K - 1) window(j) := win(j + 1)
@@ -867,10 +907,10 @@ object DenseMatcher {
   def planeBits(p: ElasParams): Int = 2 * (3 * 32 + p.colBits + 1 + p.rowBits + 1)
   def gridCellBits(p: ElasParams): Int = 2 * p.storedDisparities * p.signedDispBits
   /** Cycles a frame costs beyond its pixels: the flush, the three pipeline registers, and the first row's planes
-    * and primer when they have not arrived during the first dispMax steps.
+    * and primer (K - 1 cells and its register step) when they have not arrived during the first dispMax steps.
     */
   def cycleSlack(p: ElasParams): Int =
-    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 4 + ownerStages + planeStages + 2 + treeRegisters(p)
+    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 5 + ownerStages + planeStages + 2 + treeRegisters(p)
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
