@@ -230,6 +230,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val vG = UInt(gInW.W)
     val fp = Bool()
     val h = UInt(inW.W) //          cell height of the row: y1 - y0 of cell row cr
+    val up = UInt(inW.W) //         h - vIn (y1 - v), registered so the window's products start at a register
     val uh = UInt((colW + inW).W) // u * h, kept by adding h (the rasteriser's scaled column)
   }
   def rowEnd(q: Pos): Bool = q.u === width - 1.U
@@ -252,6 +253,8 @@ class DenseMatcher(p: ElasParams) extends Module {
       when(nextCellCol(q)) { n.cu := q.cu + 1.U; n.uIn := 0.U }.otherwise { n.uIn := q.uIn + 1.U }
       when(q.uG === (G - 1).U) { n.gx := q.gx + 1.U; n.uG := 0.U }.otherwise { n.uG := q.uG + 1.U }
     }
+    // h - vIn: a new cell row starts at vIn = 0; otherwise h stays (one height per cell row) and vIn counts up
+    n.up := Mux(rowEnd(q), Mux(nextCellRow(q), n.h, q.up - 1.U), q.up)
     n
   }
   // The last cell row's height min(step, H - 1 - y0) (every other cell row is step high), for the pixel generator.
@@ -318,14 +321,14 @@ class DenseMatcher(p: ElasParams) extends Module {
       lag := 1.U
       width := io.frameWidth
       height := io.frameHeight
-      lastCell := DenseMatcher.divConst(io.frameWidth - 2.U, step, colW)
-      lastCellRow := DenseMatcher.divConst(io.frameHeight - 2.U, step, rowW)
       inFp := !inFp
       sofPending := true.B
       genActive := true.B
       gen := 0.U.asTypeOf(new Pos)
       gen.fp := !inFp
-      gen.h := Mux(io.frameHeight - 1.U < step.U, io.frameHeight - 1.U, step.U) // cell row 0: min(step, H - 1)
+      val firstRowH = Mux(io.frameHeight - 1.U < step.U, io.frameHeight - 1.U, step.U) // cell row 0: min(step, H - 1)
+      gen.h := firstRowH
+      gen.up := firstRowH
     }.elsewhen(lag =/= D.U) {
       lag := lag + 1.U
     }.elsewhen(genActive) {
@@ -340,6 +343,12 @@ class DenseMatcher(p: ElasParams) extends Module {
     aValid := false.B
   }
   val aFire = upAdv && aValid // stage A's pixel moves on this cycle
+  // The last cell column and row follow from the frame size registered at sof, a cycle later (the divisions stay off
+  // the handshake paths); the primer issues its first cell two cycles after sof at the earliest.
+  when(RegNext(slot && slotSof, false.B)) {
+    lastCell := DenseMatcher.divConst(width - 2.U, step, colW)
+    lastCellRow := DenseMatcher.divConst(height - 2.U, step, rowW)
+  }
 
   // ---------------------------------------------------------------- primer: the next row's first K-1 cells
   val pRow = Reg(new Pos) // only v, cr, vIn, fp are used
@@ -401,7 +410,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   // carried owner), B reads the planes.
   val window = Reg(Vec(K, new Span))
   val aH = a.h
-  val aUp = (a.h - a.vIn)(inW - 1, 0)
+  val aUp = a.up
   val aDown = a.vIn
   val win = Mux(aFirst, shadow, window)
   val uh = a.uh.zext

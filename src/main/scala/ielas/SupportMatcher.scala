@@ -30,19 +30,19 @@ import chisel3.util._
   * 2r columns are kept). The reference columns u ± r are read in one cycle (the L consecutive columns from u - r:
   * banks below (u - r) mod L read the next word) and kept in registers.
   *
-  * Pipeline (for timing: at most about two compare-selects per stage): issue (block read) -> A: the four SADs of
-  * every lane as quarter-descriptor SADs -> B: lane costs -> C, E: the lane tree, about half of its levels each ->
-  * merge into the running best. A sweep's result is final 5 cycles after its last block was issued. The right sweep
-  * (u' = u - d1) starts as soon as d1 is known, without waiting for the left ratio and texture tests: it always
-  * runs, and a rejected left result is dropped at the node's decision. While the left result is computed, the read
-  * port is free: the next node's left references are prefetched then, so a searched node after a searched one starts
-  * its left sweep right after the previous right sweep. Node cycles: left blocks + 4 waiting + 1 right reference read
-  * + right blocks, plus 1 left reference read when it was not prefetched (only after a node that is not searched,
-  * which takes one cycle): at most 5 + two sweeps of ceil((dhi + 2r) / L) + 1 blocks (ElasParams.supportNodeCycles),
-  * within supportCyclesPerPoint = cyclesPerPixel x step^2 at every configuration. The node's decision (right result,
-  * then the ratio, texture, range and left/right tests, then the output register) overlaps the next node's search;
-  * a node's value leaves about 8 cycles after its last block read (1 before the pipeline), a node that is not
-  * searched waits for it (values stay in raster order).
+  * Pipeline (for timing: at most two compare-selects per stage): issue (block read) -> A: the four descriptor SADs of
+  * every lane (each a sum of four quarter-descriptor SADs) -> B: lane costs and the lane tree's first level -> C, E:
+  * the rest of the lane tree, about half each -> merge into the running best. A sweep's result is final 5 cycles after
+  * its last block was issued. The right sweep (u' = u - d1) starts as soon as d1 is known, without waiting for the left
+  * ratio and texture tests: it always runs, and a rejected left result is dropped at the node's decision. While the
+  * left result is computed, the read port is free: the next node's left references are prefetched then, so a searched
+  * node after a searched one starts its left sweep right after the previous right sweep. Node cycles: left blocks + 4
+  * waiting + 1 right reference read + right blocks, plus 1 left reference read when it was not prefetched (only after a
+  * node that is not searched, which takes one cycle): at most 5 + two sweeps of ceil((dhi + 2r) / L) + 1 blocks
+  * (ElasParams.supportNodeCycles), within supportCyclesPerPoint = cyclesPerPixel x step^2 at every configuration. The
+  * node's decision (right result, then the ratio, texture, range and left/right tests, then the output register)
+  * overlaps the next node's search; a node's value leaves about 8 cycles after its last block read (1 before the
+  * pipeline), a node that is not searched waits for it (values stay in raster order).
   * Best/second best are merged over lanes and blocks in ascending d with the smaller d winning a tie (strict "<"
   * against the smaller-d operand), which equals the sequential definition (E1 min, d1 its smallest d, E2 the second
   * smallest of the multiset).
@@ -143,8 +143,17 @@ class SupportMatcher(p: ElasParams) extends Module {
 
   /** Row memory address: view * slots * words + slot * words + word (word < words always holds). */
   private val viewWords = slots * wordsPerRow
+  private val addrW = log2Ceil(2 * viewWords)
   def rowAddress(view: UInt, slot: UInt, word: UInt): UInt =
-    (Mux(view.asBool, viewWords.U, 0.U) +& slotBase(slot, wordsPerRow) +& word)(log2Ceil(2 * viewWords) - 1, 0)
+    (Mux(view.asBool, viewWords.U, 0.U) +& slotBase(slot, wordsPerRow) +& word)(addrW - 1, 0)
+  // The walker's row addresses start at these (its slot's rows of each view), kept in registers with walkSlot so
+  // that a read address is one addition away from a register.
+  val walkBase = RegInit(VecInit(0.U(addrW.W), viewWords.U(addrW.W)))
+  def setWalkSlot(slot: UInt): Unit = {
+    walkSlot := slot
+    walkBase(0) := rowAddress(0.U, slot, 0.U)
+    walkBase(1) := rowAddress(1.U, slot, 0.U)
+  }
   def texAddress(slot: UInt, col: UInt): UInt =
     (slotBase(slot, p.maxWidth) +& col)(log2Ceil(slots * p.maxWidth) - 1, 0)
 
@@ -251,8 +260,9 @@ class SupportMatcher(p: ElasParams) extends Module {
   }
   def readAddress(view: Bool, word: UInt, split: UInt): ReadAddress = {
     val a = Wire(new ReadAddress)
-    a.word := rowAddress(view, walkSlot, word)
-    a.next := rowAddress(view, walkSlot, (word +& 1.U)(blockW - 1, 0))
+    val base = Mux(view, walkBase(1), walkBase(0))
+    a.word := (base +& word)(addrW - 1, 0)
+    a.next := (base +& (word +& 1.U)(blockW - 1, 0))(addrW - 1, 0)
     a.split := split
     a
   }
@@ -280,8 +290,8 @@ class SupportMatcher(p: ElasParams) extends Module {
     when(copyNext) { refLo(kind) := nextLo(kind); refHi(kind) := nextHi(kind) }
   }
 
-  // ---- search pipeline: issue (read) -> A: half SADs -> B: lane costs -> C, E: the lane tree -> merge into the
-  // running best. A sweep's result is final 5 cycles after its last block is issued. ----
+  // ---- search pipeline: issue (read) -> A: the four SADs per lane -> B: lane costs, first tree level -> C, E: the
+  // lane tree -> merge into the running best. A sweep's result is final 5 cycles after its last block is issued. ----
   class Tag extends Bundle {
     val left = Bool() //  the block belongs to a left sweep
     val first = Bool() // the sweep's first block
@@ -326,8 +336,8 @@ class SupportMatcher(p: ElasParams) extends Module {
     (0 until levels).foldLeft(xs)((ys, _) => ys.grouped(2).map(g => merge(g(0), g(1), left)).toSeq)
 
   // A: per lane (target column c1 = jL + k and its partner c1 + 2r, in this block or the one issued before) the four
-  // SADs, each as four quarter-descriptor SADs; whether c1 is in the sweep and its d (left d = maxC1 - c1, right
-  // c1 - minC1)
+  // SADs, each summed from four quarter-descriptor SADs (one register per SAD, not per quarter); whether c1 is in
+  // the sweep and its d (left d = maxC1 - c1, right c1 - minC1)
   private val sadParts = 4
   private val partBits = 8 * p.descriptorBytes / sadParts
   require(partBits * sadParts == 8 * p.descriptorBytes)
@@ -336,32 +346,35 @@ class SupportMatcher(p: ElasParams) extends Module {
   val aValid = RegNext(s0Valid, false.B)
   val aTag = RegEnable(s0Tag, s0Valid)
   val aSad = (0 until lanes).map { k =>
-    RegEnable(VecInit((0 until 2).flatMap { kind =>
+    val parts = (0 until 2).flatMap { kind =>
       val cur = data(kind)
       val partner = if (k + 2 * r < banks) cur(k + 2 * r) else prevBlock(kind)(k + 2 * r - banks)
       partSads(refLo(kind), cur(k)) ++ partSads(refHi(kind), partner)
-    }), s0Valid)
+    }
+    RegEnable(VecInit(parts.grouped(sadParts).map(SupportMatcher.sumTree).toSeq), s0Valid) // the four SADs
   }
   val aLane = (0 until lanes).map { k =>
     val inSweep = k.U >= s0LaneLo && k.U < s0LaneEnd
     val d = s0DBase + Mux(s0Tag.left, (((1 << baseW) - k) % (1 << baseW)).U(baseW.W), k.U(baseW.W))
     (RegEnable(inSweep, s0Valid), RegEnable(d, s0Valid))
   }
-  // B: lane costs
+  // B: lane costs and the lane tree's first level (a lane's E2 is "none", so a pair's E2 is its larger E1)
+  private val levels = log2Ceil(lanes)
+  private val levelsB = 1
+  private val levelsC = (levels - levelsB + 1) / 2
   val bValid = RegNext(aValid, false.B)
   val bTag = RegEnable(aTag, aValid)
-  val bBest = aSad.zip(aLane).map { case (sads, (inSweep, d)) =>
-    RegEnable(best(Mux(inSweep, SupportMatcher.sumTree(sads), costInf), d, costInf), aValid)
+  val laneBest = aSad.zip(aLane).map { case (sads, (inSweep, d)) =>
+    best(Mux(inSweep, SupportMatcher.sumTree(sads), costInf), d, costInf)
   }
-  // C, E: the lane tree (ascending lanes, ties to the smaller d), about half of its levels each
-  private val levels = log2Ceil(lanes)
-  private val levelsC = (levels + 1) / 2
+  val bBest = treeLevels(laneBest, levelsB, aTag.left).map(RegEnable(_, aValid))
+  // C, E: the rest of the lane tree (ascending lanes, ties to the smaller d), about half of its levels each
   val cValid = RegNext(bValid, false.B)
   val cTag = RegEnable(bTag, bValid)
   val cBest = treeLevels(bBest, levelsC, bTag.left).map(RegEnable(_, bValid))
   val eValid = RegNext(cValid, false.B)
   val eTag = RegEnable(cTag, cValid)
-  val blockBest = RegEnable(treeLevels(cBest, levels - levelsC, cTag.left).head, cValid)
+  val blockBest = RegEnable(treeLevels(cBest, levels - levelsB - levelsC, cTag.left).head, cValid)
   // merge: each later block holds higher d (left sweep) or lower d (right sweep)
   val running = Reg(new Best)
   val takeBlock = eTag.first || bWins(running, blockBest, !eTag.left) // the merged d1 is the block's
@@ -404,7 +417,7 @@ class SupportMatcher(p: ElasParams) extends Module {
     when(nodeEol) {
       walkU := 0.U
       walkV := Mux(walkV +& step.U < height, walkV + step.U, height - 1.U)
-      walkSlot := Mux(walkSlot === (slots - 1).U, 0.U, walkSlot + 1.U)
+      setWalkSlot(Mux(walkSlot === (slots - 1).U, 0.U, walkSlot + 1.U))
       when(nodeEof) { state := sIdle; walkBusy := false.B }
     }.otherwise {
       walkU := Mux(walkU +& step.U < width, walkU + step.U, width - 1.U)
@@ -451,7 +464,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   switch(state) {
     is(sIdle) {
       when(startFrame) {
-        walkU := 0.U; walkV := 0.U; walkSlot := 0.U
+        walkU := 0.U; walkV := 0.U; setWalkSlot(0.U)
         state := sNode
       }
     }
