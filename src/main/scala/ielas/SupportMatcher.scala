@@ -159,8 +159,11 @@ class SupportMatcher(p: ElasParams) extends Module {
 
   /** Descriptor row memories: (row kind 0 = v - r, 1 = v + r)(bank), the right view's words after the left's: a
     * sweep reads one view at a time, so sharing the read port halves the block RAMs (they are read-width bound).
+    * Read-first block RAM (a `Mem` whose read data is registered, see `data`): a sweep never reads the slot being
+    * written, so the transparent read of a SyncReadMem would only buy Yosys' bypass logic (an address compare on the
+    * read path and a 128-bit data mux per bank).
     */
-  val rowMem = Seq.fill(2, banks)(SyncReadMem(2 * viewWords, UInt(descBits.W)))
+  val rowMem = Seq.fill(2, banks)(Mem(2 * viewWords, UInt(descBits.W)))
   val texMem = SyncReadMem(slots * p.maxWidth, UInt(2.W)) // bit 0 left, bit 1 right: texture >= supportTexture
 
   val capBank = capX(bankBits - 1, 0)
@@ -268,7 +271,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   }
   val bankRead = WireDefault(readAddress(readView, readWord, readSplit))
   val bankAddr = VecInit((0 until banks).map(b => Mux(b.U < bankRead.split, bankRead.next, bankRead.word)))
-  val data = (0 until 2).map(kind => (0 until banks).map(b => rowMem(kind)(b).read(bankAddr(b))))
+  val data = (0 until 2).map(kind => (0 until banks).map(b => RegNext(rowMem(kind)(b).read(bankAddr(b)))))
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
   // ---- reference descriptors (columns c0 and c0 + 2r of a reference read), kept in registers ----
@@ -612,7 +615,7 @@ object SupportMatcher {
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Support", "rows", 2 * slots(p) * wordsPerRow(p), 2 * banks(p) * 8 * p.descriptorBytes,
-      s"2 views x ${slots(p)} slots x rows v-r, v+r, ${banks(p)} banks of SyncReadMem 1R1W (both views per bank)"),
+      s"2 views x ${slots(p)} slots x rows v-r, v+r, ${banks(p)} banks of read-first 1R1W memories (Mem + read register; both views per bank)"),
     MemoryUse("Support", "texture", slots(p) * p.maxWidth, 2, s"${slots(p)} slots x 2 views, SyncReadMem 1R1W")
   )
 }
