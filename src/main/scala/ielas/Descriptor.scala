@@ -44,6 +44,7 @@ class Descriptor(p: ElasParams) extends Module {
   val inRow = RegInit(0.U(p.rowBits.W)) //    row of the next real pixel
   val warmup = RegInit(0.U(stepBits.W)) //    steps left before the first emission of the frame
   val flushLeft = RegInit(0.U(stepBits.W)) // virtual steps left after the last input pixel
+  val flushing = RegInit(false.B) //          flushLeft =/= 0, kept as a flag: it gates the input handshake
 
   // ---- pipeline registers ----
   val s1Valid = RegInit(false.B)
@@ -55,7 +56,6 @@ class Descriptor(p: ElasParams) extends Module {
 
   val s1Advance = s1Valid && (!outValid || io.out.ready)
   val s1Free = !s1Valid || s1Advance
-  val flushing = flushLeft =/= 0.U
 
   io.in.ready := s1Free && !flushing
   val startOfFrame = io.in.fire && !busy && io.in.bits.sof
@@ -65,12 +65,12 @@ class Descriptor(p: ElasParams) extends Module {
 
   val stepCol = Mux(startOfFrame, 0.U, inCol)
   val stepRow = Mux(startOfFrame, 0.U, inRow)
-  val frameW = Mux(startOfFrame, io.frameWidth, width)
-  val frameH = Mux(startOfFrame, io.frameHeight, height)
   val stepLatency = Mux(startOfFrame, Descriptor.latencyOf(p, io.frameWidth, stepBits), latency)
   val stepWarmup = Mux(startOfFrame, stepLatency, warmup)
-  val endOfLine = stepCol === frameW - 1.U
-  val lastPixel = realStep && endOfLine && stepRow === frameH - 1.U
+  // compared on the registers (and on the frame width for the start beat), so the handshake only selects
+  val endOfLine = Mux(startOfFrame, io.frameWidth === 1.U, inCol === width - 1.U)
+  val lastRow = Mux(startOfFrame, io.frameHeight === 1.U, inRow === height - 1.U)
+  val lastPixel = realStep && endOfLine && lastRow
 
   when(startOfFrame) {
     width := io.frameWidth
@@ -83,10 +83,14 @@ class Descriptor(p: ElasParams) extends Module {
     warmup := Mux(stepWarmup === 0.U, 0.U, stepWarmup - 1.U)
   }
   when(realStep) { inRow := Mux(endOfLine, stepRow + 1.U, stepRow) }
-  when(virtualStep) { flushLeft := flushLeft - 1.U }
+  when(virtualStep) {
+    flushLeft := flushLeft - 1.U
+    flushing := flushLeft =/= 1.U
+  }
   when(lastPixel) {
     busy := false.B
     flushLeft := stepLatency
+    flushing := true.B // latencySteps >= m + 1 > 0
   }
 
   // ---- line buffer: word at column x = pixel rows y-1 (slot 0) .. y-2m (slot 2m-1) of both views ----
@@ -118,23 +122,30 @@ class Descriptor(p: ElasParams) extends Module {
   val duRows = Seq(m - r, m - 1, m, m + 1, m + r).distinct // pixel-window rows whose du the layout reads
   val dvRows = Seq(m - 1, m, m + 1)
 
-  /** Gradient window of one view: du/dv per needed row, columns 0 (x - r) .. 2r (x + r). */
+  /** Gradient window of one view: du/dv per needed row, columns 0 (x - r) .. 2r (x + r).
+    * The vertical halves of the Sobel (column sum S, column difference T) are computed once per pixel column as
+    * it arrives and shifted along with it; the gradient then only combines three registered column values, which
+    * keeps the line buffer -> gradient register path short (and shares each column's S / T between positions).
+    */
   def gradientWindow(view: Int): (Map[Int, Seq[UInt]], Map[Int, Seq[UInt]]) = {
-    val pixels = Seq.fill(3)(Reg(Vec(2 * m + 1, UInt(8.W)))) // columns x-1, x, x+1 of the gradient's centre
+    val col = column(view)
+    def around(q: Int) = Seq(col(q - 1), col(q), col(q + 1))
+    // columns x-1, x, x+1 of the gradient's centre, per pixel-window row
+    val smoothIn = duRows.map(q => q -> Sobel.smooth(around(q))).toMap
+    val diffIn = dvRows.map(q => q -> Sobel.diff(around(q))).toMap
+    val smooths = smoothIn.map { case (q, s) => q -> Seq.fill(3)(Reg(chiselTypeOf(s))) }
+    val diffs = diffIn.map { case (q, t) => q -> Seq.fill(3)(Reg(chiselTypeOf(t))) }
     val du = duRows.map(q => q -> Seq.fill(2 * r + 1)(Reg(UInt(8.W)))).toMap
     val dv = dvRows.map(q => q -> Seq.fill(2 * r + 1)(Reg(UInt(8.W)))).toMap
+    def shiftIn[T <: Data](regs: Seq[T], in: T): Unit = {
+      regs.zip(regs.tail).foreach { case (older, newer) => older := newer }
+      regs.last := in
+    }
     when(s1Advance) {
-      pixels(0) := pixels(1)
-      pixels(1) := pixels(2)
-      pixels(2) := VecInit(column(view))
-      for ((q, regs) <- du) {
-        regs.zip(regs.tail).foreach { case (older, newer) => older := newer }
-        regs.last := Sobel.du(pixels.map(c => Seq(c(q - 1), c(q), c(q + 1))))
-      }
-      for ((q, regs) <- dv) {
-        regs.zip(regs.tail).foreach { case (older, newer) => older := newer }
-        regs.last := Sobel.dv(pixels.map(c => Seq(c(q - 1), c(q), c(q + 1))))
-      }
+      for ((q, s) <- smooths) shiftIn(s, smoothIn(q))
+      for ((q, t) <- diffs) shiftIn(t, diffIn(q))
+      for ((q, regs) <- du) shiftIn(regs, Sobel.duOf(smooths(q)(0), smooths(q)(2)))
+      for ((q, regs) <- dv) shiftIn(regs, Sobel.dvOf(diffs(q)))
     }
     (du, dv)
   }

@@ -58,8 +58,6 @@ class GridVector(p: ElasParams) extends Module {
   })
 
   // ---- frame state ----
-  val width = RegInit(0.U(p.colBits.W))
-  val height = RegInit(0.U(p.rowBits.W))
   val gw = RegInit(1.U(colW.W)) // grid columns of the frame: column of the last node of a lattice row + 1
   val inBusy = RegInit(false.B) //   lattice nodes of a frame are still expected
   val emitBusy = RegInit(false.B) // grid rows of a frame are still to be emitted
@@ -68,52 +66,86 @@ class GridVector(p: ElasParams) extends Module {
   val markedAll = RegInit(false.B) //    the frame's last node went through the mark pipeline (markedRow = Gh - 1)
 
   // ---- input: node position (u, v) and its grid cell, kept as quotient and remainder by gridSize (no divider) ----
-  private val remW = log2Ceil(gs)
+  // A node is step pixels after the previous one, or the last pixel when less than a step is left. The walk keeps
+  // the pixels left to the last one (room) and whether a full step fits, both a cycle ahead, and the cell and
+  // remainder of the last pixel in registers: the next node is then a constant step of the remainder or a register
+  // copy, never an add feeding a compare feeding an add in one cycle.
+  private val step = p.candidateStep
+  private val remW = log2Ceil(gs).max(1)
   class Position(posW: Int) extends Bundle {
-    val pos = UInt(posW.W)
     val cell = UInt(colW.max(rowW).W)
-    val rem = UInt(remW.max(1).W)
+    val rem = UInt(remW.W)
+    val room = UInt(posW.W) // limit - 1 - position
+    val fits = Bool() //       room >= step: the next node is a full step away, else it is the last pixel
   }
-  /** The next lattice position: pos + step, or the last pixel limit - 1 (the step is at most gridSize: <= 1 carry). */
-  def advance(at: Position, limit: UInt): Position = {
+  /** Cell and remainder of a position, as a bundle for the last-pixel registers. */
+  class CellRem extends Bundle {
+    val cell = UInt(colW.max(rowW).W)
+    val rem = UInt(remW.W)
+  }
+  /** The first node of a row (or column) of `limit` pixels. */
+  def origin(posW: Int, limit: UInt): Position = {
+    val o = Wire(new Position(posW))
+    o.cell := 0.U; o.rem := 0.U; o.room := limit - 1.U; o.fits := limit > step.U
+    o
+  }
+  /** The next node: a full step (rem + step wraps at most once, as step <= gridSize) or the last pixel. */
+  def advance(at: Position, last: CellRem): Position = {
     val next = Wire(chiselTypeOf(at))
-    val delta = Mux(at.pos +& p.candidateStep.U < limit, p.candidateStep.U, limit - 1.U - at.pos)
-    val rem = at.rem +& delta
-    val carry = rem >= gs.U
-    next.pos := at.pos + delta
-    next.cell := at.cell + carry
-    next.rem := Mux(carry, rem - gs.U, rem)
+    val carry = at.rem >= (gs - step).U
+    val steppedRem = Mux(carry, at.rem - (gs - step).U, at.rem + step.U)
+    next.cell := Mux(at.fits, at.cell + carry, last.cell)
+    next.rem := Mux(at.fits, steppedRem, last.rem)
+    next.room := Mux(at.fits, at.room - step.U, 0.U)
+    next.fits := at.fits && at.room >= (2 * step).U
     next
   }
-  def origin[T <: Position](gen: T): T = { val o = Wire(gen); o.pos := 0.U; o.cell := 0.U; o.rem := 0.U; o }
-  val nodeU = RegInit(origin(new Position(p.colBits)))
-  val nodeV = RegInit(origin(new Position(p.rowBits)))
+  /** Cell and remainder of the last pixel (position + room), exact while room < 2 step. That holds one node before
+    * the last step and stays true (the target does not move), so registering it each cycle has it ready in time.
+    */
+  def lastPixel(at: Position): CellRem = {
+    val nearBits = math.min(log2Ceil(2 * step + 1), at.room.getWidth)
+    val sum = at.rem +& at.room(nearBits - 1, 0) // < gridSize + 2 step <= 3 gridSize
+    val wraps = Mux(sum >= (2 * gs).U, 2.U, Mux(sum >= gs.U, 1.U, 0.U))
+    val l = Wire(new CellRem)
+    l.cell := at.cell + wraps
+    l.rem := sum - Mux(sum >= (2 * gs).U, (2 * gs).U, Mux(sum >= gs.U, gs.U, 0.U))
+    l
+  }
+  val nodeU = RegInit(0.U.asTypeOf(new Position(p.colBits)))
+  val nodeV = RegInit(0.U.asTypeOf(new Position(p.rowBits)))
+  val rowOrigin = Reg(new Position(p.colBits)) // the first node of every lattice row of the frame
+  val lastU = Reg(new CellRem)
+  val lastV = Reg(new CellRem)
 
   val start = io.in.valid && io.in.bits.sof && !inBusy && !emitBusy
   io.in.ready := Mux(inBusy, nodeV.cell < emitRow +& 3.U, !io.in.bits.sof || !emitBusy)
   val accept = io.in.fire && (inBusy || start)
-  val w = Mux(start, io.frameWidth, width)
-  val h = Mux(start, io.frameHeight, height)
-  val u = Mux(start, origin(new Position(p.colBits)), nodeU)
-  val v = Mux(start, origin(new Position(p.rowBits)), nodeV)
+  val startU = origin(p.colBits, io.frameWidth)
+  val startV = origin(p.rowBits, io.frameHeight)
+  val u = Mux(start, startU, nodeU)
+  val v = Mux(start, startV, nodeV)
+  // the start beat's targets are computed from the frame size directly (the registers hold the previous frame's)
+  lastU := Mux(start, lastPixel(startU), lastPixel(nodeU))
+  lastV := Mux(start, lastPixel(startV), lastPixel(nodeV))
 
   when(start) {
-    width := io.frameWidth; height := io.frameHeight
     inBusy := true.B; emitBusy := true.B
     emitRow := 0.U; markedRow := 0.U; markedAll := false.B
-    nodeV := v // the start beat is node (0, 0) and no row ends on it (Lw >= 2)
+    rowOrigin := startU
+    nodeV := startV // the start beat is node (0, 0) and no row ends on it (Lw >= 2)
   }
-  // The next positions from the start beat and from the registers are computed side by side, so the start
-  // decision (input valid, sof, busy flags) only selects between them.
-  def nextPos(at: Position, limit: UInt, startLimit: UInt, gen: Position): Position =
-    Mux(start, advance(origin(gen), startLimit), advance(at, limit))
+  // The start beat's next position is computed from the frame size side by side with the registers' (its last
+  // pixel, if the first step already reaches it, is the frame width - 1 < step: cell 0), so the start decision
+  // only selects between them.
+  def startLast(limit: UInt): CellRem = { val l = Wire(new CellRem); l.cell := 0.U; l.rem := limit - 1.U; l }
   when(accept) {
     when(io.in.bits.eol) {
-      nodeU := origin(new Position(p.colBits))
-      nodeV := nextPos(nodeV, height, io.frameHeight, new Position(p.rowBits))
+      nodeU := rowOrigin
+      nodeV := Mux(start, advance(startV, startLast(io.frameHeight)), advance(nodeV, lastV))
       when(io.in.bits.eof) { inBusy := false.B }
     }.otherwise {
-      nodeU := nextPos(nodeU, width, io.frameWidth, new Position(p.colBits))
+      nodeU := Mux(start, advance(startU, startLast(io.frameWidth)), advance(nodeU, lastU))
     }
   }
 
@@ -195,12 +227,16 @@ class GridVector(p: ElasParams) extends Module {
     val addr = UInt(addrW.W)
     val data = UInt(nd.W)
   }
-  def markView(mem: SyncReadMem[UInt], valid: Vec[UInt], rd: UInt, col: UInt, en: Bool): Unit = {
-    val addr = address(s2.slot, col)
+  // The write address and the cell's valid bit are registered from s1, which keeps the address adder and the valid
+  // bit select off the forwarding compare's path. A valid bit set by the write during s1 is covered by the
+  // forwarding (that write is `prev` in s2); slots are only cleared when no mark for them is in flight.
+  def markView(mem: SyncReadMem[UInt], valid: Vec[UInt], rd: UInt, s1Col: UInt, col: UInt, en: Bool): Unit = {
+    val addr = RegNext(address(s1.slot, s1Col))
+    val wasValid = RegNext((valid(s1.slot) >> s1Col)(0))
     val last = Wire(new LastWrite)
     val prev = RegInit(idle(new LastWrite)(_.en))
     prev := last
-    val old = Mux(prev.en && prev.addr === addr, prev.data, Mux((valid(s2.slot) >> col)(0), rd, 0.U))
+    val old = Mux(prev.en && prev.addr === addr, prev.data, Mux(wasValid, rd, 0.U))
     last.en := en
     last.addr := addr
     last.data := old | markBits
@@ -209,8 +245,8 @@ class GridVector(p: ElasParams) extends Module {
       valid(s2.slot) := valid(s2.slot) | UIntToOH(col(log2Ceil(colsMax + 1) - 1, 0), colsMax)
     }
   }
-  markView(memL, validL, rdL, s2.colL, s2.node && s2.support)
-  markView(memR, validR, rdR, s2.colR, s2.node && s2.support && s2.rightOk)
+  markView(memL, validL, rdL, s1.colL, s2.colL, s2.node && s2.support)
+  markView(memR, validR, rdR, s1.colR, s2.colR, s2.node && s2.support && s2.rightOk)
   when(s2.node) {
     markedRow := s2.row
     when(s2.eol) { gw := s2.colL + 1.U } // every lattice row ends at u = W - 1; row 0 is through long before emission

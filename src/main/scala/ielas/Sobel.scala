@@ -7,9 +7,9 @@ import chisel3._
   */
 object Sobel {
   /** S = I(y-1) + 2 I(y) + I(y+1): 0..1020. */
-  private def smooth(col: Seq[UInt]): SInt = (col(0) +& (col(1) << 1) +& col(2)).zext
+  def smooth(col: Seq[UInt]): SInt = (col(0) +& (col(1) << 1) +& col(2)).zext
   /** T = I(y-1) - I(y+1): -255..255. */
-  private def diff(col: Seq[UInt]): SInt = col(0).zext -& col(2).zext
+  def diff(col: Seq[UInt]): SInt = col(0).zext -& col(2).zext
 
   /** sat_u8((v >> 2) + 128); >> on SInt is arithmetic, i.e. floor division by 4. */
   private def offsetSaturate(v: SInt): UInt = {
@@ -18,9 +18,12 @@ object Sobel {
   }
 
   /** du = sat_u8(((S(x-1) - S(x+1)) >> 2) + 128): left minus right. */
-  def du(window: Seq[Seq[UInt]]): UInt = offsetSaturate(smooth(window(0)) -& smooth(window(2)))
+  def du(window: Seq[Seq[UInt]]): UInt = duOf(smooth(window(0)), smooth(window(2)))
+  /** du from the column sums S(x-1), S(x+1) (a pipeline may register them per column). */
+  def duOf(smoothLeft: SInt, smoothRight: SInt): UInt = offsetSaturate(smoothLeft -& smoothRight)
 
   /** dv = sat_u8(((T(x-1) + 2 T(x) + T(x+1)) >> 2) + 128): top minus bottom. */
-  def dv(window: Seq[Seq[UInt]]): UInt =
-    offsetSaturate(diff(window(0)) +& (diff(window(1)) << 1) +& diff(window(2)))
+  def dv(window: Seq[Seq[UInt]]): UInt = dvOf(window.map(diff))
+  /** dv from the column differences T(x-1), T(x), T(x+1). */
+  def dvOf(diffs: Seq[SInt]): UInt = offsetSaturate(diffs(0) +& (diffs(1) << 1) +& diffs(2))
 }
