@@ -269,8 +269,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val inAKv = RegInit(false.B); val inAK = Reg(new AKBeat)
   val inA1v = RegInit(false.B); val inA1 = Reg(new A1Beat)
   val inA2v = RegInit(false.B); val inA2 = Reg(new A2Beat)
-  // A2's R write of this cycle (A1 forwards it: its R word was read a cycle earlier)
-  val a2RWrite = WireDefault(false.B); val a2PushTop = Wire(UInt(idW.W))
   /** A2 holds the last pixel of row aNext: B and C may start that row now. */
   val aLastInA2 = inA2v && inA2.p.lastCol
 
@@ -386,14 +384,16 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   inA1.node := inAK.node; inA1.connectU := inAK.connectU; inA1.cls := cls
 
   // ---- A1: the class's row-k entries ----
-  // R_k[cls]: the word read in AK, or the node A2 writes there now (the class touched first by the pixel in A2);
-  // S_k of that node is read now (and seen by A2: the read includes A2's write-back of this cycle). A2's rValid write
-  // of this cycle is not in the flag read here; A2 forwards it (hitPre). R_k's flags were cleared at the row start.
+  // R_k[cls]: the word read in AK; S_k of that node is read now (and seen by A2: the read includes A2's write-back of
+  // this cycle). A2's R and rValid writes of this cycle are not in the words read here, and nothing is forwarded in
+  // A1 (that kept A2's decision off the S read address): such a write means the pixel in A2 touched this class
+  // first, and A2 then finds hitR, takes rn as its top and uses none of rn, mWord and the rn compares below.
+  // R_k's flags were cleared at the row start.
   // The pixel in A2 is the previous one of the same row (a row's first pixel finds A2 empty); S_{k-1} is complete
   // for a row's first pixel (T takes it once the previous row's last pixel has left A0: that pixel's last S write
   // and finTop come no later than this pixel's AK read).
   val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
-  val rnRaw = Mux(a2RWrite && inA2.p.sl.r === inA1.sl.r && inA2.p.cls === inA1.cls, a2PushTop, rWordA)
+  val rnRaw = rWordA
   val mWord = sTab.read(1, addr(inA1.sl.s, rnRaw))
   inA2v := inA1v
   inA2.p := inA1
@@ -436,8 +436,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, satAdd(topSize +& mWord, v), satAdd(topSize, v))))
   topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
   lastTouchNew := inA2v && touchNew
-  a2RWrite := inA2v && touchNew
-  a2PushTop := pushTop
   when(inA2v) {
     when(q.newRun && topAnyBase) { sTab.write(addr(aS, top), topSize) } // the old top stops being the top
     for ((r, b) <- rValid.zipWithIndex) when(aP === b.U && touchNew) { r := r | UIntToOH(q.cls, W) }
