@@ -550,8 +550,16 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dSlot = dD.cur
   val dVirt = dD.regRead(metaVirtual); val dFirst = dD.regRead(metaFirst); val dLast = dD.regRead(metaLast)
   val dLen = dD.regRead(metaLen); val dWd = dD.regRead(metaW); val dWm1 = dD.regRead(metaWm1)
-  val dReady = dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext) // aNext >= dNext + 1, cNext >= dNext + n + 1
+  // aNext >= dNext + 1, cNext >= dNext + n + 1: a register formed a cycle early, so the issue (and the chain's map
+  // read addresses after it) waits for no counter compare. Exact for D's own row change; A's and C's progress of
+  // this cycle is seen a cycle late, which only delays a row's start. At a row end it takes the next row's test,
+  // made a cycle earlier still (false in the cycle after a row change, when that test was of the row now current).
+  val dRowEnd = dVirt || dCol === dWm1
+  val dReadyNextRow = RegNext(!dNextIncW && dAN >= 2.S &&
+    (metaVirtual(dD.succ) || dCN > (metaLen(dD.succ) +& 1.U).zext), false.B)
+  val dReady = RegInit(false.B)
   val issue = dReady && advance
+  dReady := Mux(issue && dRowEnd, dReadyNextRow, dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext))
   // read one cycle ahead, at the row and column D holds next cycle: both candidates come from registers and the
   // issue decision only picks one (it stays off the slot x W + column adder)
   val dAddrNow = addr(dD.cur, dCol)
@@ -572,7 +580,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   s0.bits.cols := dWd
   s0.bits.virt := dVirt
   when(issue) {
-    when(dVirt || dCol === dWm1) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
+    when(dRowEnd) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
   }
   // stage i (1..L) applies F_{seq + i} when i <= n. The maps are read one cycle ahead: each port's address comes
   // from the beats the stages hold next cycle (stagesNext), so a stage's lookup reads the data of its own beat.
@@ -603,7 +611,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   for ((m, b) <- fMaps.zipWithIndex; q <- 0 until 2) {
     val users = (1 to L).filter(_ % 2 == q)
     val sel = users.map(i => stagesNext(i - 1).valid && applies(i, stagesNext(i - 1).bits) && target(stagesNext(i - 1).bits, b))
-    val address = if (users.isEmpty) 0.U else PriorityMux(sel :+ true.B, users.map(i => stagesNext(i - 1).bits.ptr(idW - 1, 0)) :+ 0.U)
+    // at most one stage of each parity targets a slot (see fMaps), so an AND-OR (shallower than a priority chain)
+    val address = if (users.isEmpty) 0.U else Mux1H(sel, users.map(i => stagesNext(i - 1).bits.ptr(idW - 1, 0)))
     portData(b)(q) := (if (users.isEmpty) 0.U else m.read(address))
   }
   when(advance) {
