@@ -25,7 +25,9 @@ class PostBeat(bits: Int) extends Bundle {
   * No read that is used meets a write of the same cycle, so nothing is forwarded: a row being written is read only
   * 2 columns behind the input (a column written in cycle t is read from t + 1 on), and markers go to columns the
   * output has not reached in that row. Slots are wrapping counters (no `seq % B`); the input / output distance is one
-  * small counter ([[ahead]]) and the output row's metadata sits in registers, so the handshake logic stays shallow.
+  * small counter ([[ahead]]) and the output row's metadata sits in registers, so the handshake logic stays shallow;
+  * the last-column flag, outCol + 1 and the early-row test (input 2 columns ahead) are registers formed a cycle
+  * ahead, so the take only selects the next read address (the early test sees the input a cycle late: +1 clock).
   */
 class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: DecoupledIO[PostBeat], inWord: UInt) {
   val B: Int = above + below + 2

@@ -57,8 +57,8 @@ import chisel3.util._
   * Memories: every memory is block RAM (SyncReadMem), each read one cycle ahead at the address its reader holds next
   * cycle (D's row and column, A's pixel count, the beat each chain stage holds next, B's node) or at the address a
   * pipeline step forms for the next step. A read sees the writes of its own cycle (the memories are transparent);
-  * a write in the cycle after the read is forwarded by the reader (A1: A2's R write; A2: the previous pixel's first
-  * touch, through its touched flag). The delay line, row above and F map reads never meet a write of the same cycle
+  * a write in the cycle after the read is forwarded by the reader (A2: the previous pixel's first touch, through its
+  * touched flag, which also stands in for that pixel's R write missing from A1's word). The delay line, row above and F map reads never meet a write of the same cycle
   * (D reads rows A has finished, the row above was written frameW > 1 pixels earlier, C writes maps no beat in the
   * chain still needs); P is written a cycle after A asks, from registers, and B's read forwards that write and the
   * one asked for this cycle (A's last pixels write while B starts that row). K (written by B2), R and S (by A2) have
