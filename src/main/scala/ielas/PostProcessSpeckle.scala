@@ -611,8 +611,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   for ((m, b) <- fMaps.zipWithIndex; q <- 0 until 2) {
     val users = (1 to L).filter(_ % 2 == q)
     val sel = users.map(i => stagesNext(i - 1).valid && applies(i, stagesNext(i - 1).bits) && target(stagesNext(i - 1).bits, b))
-    // at most one stage of each parity targets a slot (see fMaps), so an AND-OR (shallower than a priority chain)
-    val address = if (users.isEmpty) 0.U else Mux1H(sel, users.map(i => stagesNext(i - 1).bits.ptr(idW - 1, 0)))
+    val address = if (users.isEmpty) 0.U else PriorityMux(sel :+ true.B, users.map(i => stagesNext(i - 1).bits.ptr(idW - 1, 0)) :+ 0.U)
     portData(b)(q) := (if (users.isEmpty) 0.U else m.read(address))
   }
   when(advance) {
