@@ -25,7 +25,9 @@ class PostBeat(bits: Int) extends Bundle {
   * No read that is used meets a write of the same cycle, so nothing is forwarded: a row being written is read only
   * 2 columns behind the input (a column written in cycle t is read from t + 1 on), and markers go to columns the
   * output has not reached in that row. Slots are wrapping counters (no `seq % B`); the input / output distance is one
-  * small counter ([[ahead]]) and the output row's metadata sits in registers, so the handshake logic stays shallow.
+  * small counter ([[ahead]]) and the output row's metadata sits in registers, so the handshake logic stays shallow;
+  * the last-column flag, outCol + 1 and the early-row test (input 2 columns ahead) are registers formed a cycle
+  * ahead, so the take only selects the next read address (the early test sees the input a cycle late: +1 clock).
   */
 class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: DecoupledIO[PostBeat], inWord: UInt) {
   val B: Int = above + below + 2
@@ -48,8 +50,14 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   val inCol: UInt = RegInit(0.U(p.colBits.W))
   val inRow: UInt = RegInit(0.U(p.rowBits.W))
   val outCol: UInt = RegInit(0.U(p.colBits.W))
-  /** outCol next cycle (the read address of every slot). */
-  val outColNext: UInt = WireDefault(outCol)
+  /** outCol is the row's last column: a register, set a cycle ahead (the handshake and the read address stay off
+    * the column compare). */
+  val atLastCol: Bool = RegInit(false.B)
+  private val outColP1 = RegInit(1.U(p.colBits.W)) // outCol + 1, kept as a register
+  /** The output takes pixel (v, outCol) this cycle (set by [[advanceOut]]). */
+  private val advancing = WireDefault(false.B)
+  /** outCol next cycle (the read address of every slot): both candidates are registers, the take only selects. */
+  val outColNext: UInt = Mux(advancing, Mux(atLastCol, 0.U, outColP1), outCol)
   outCol := outColNext
   // the input writes row outSeq + ahead into the slot of row outSeq + ahead - B; the window reaches back to outSeq - above
   in.ready := ahead <= (B - above - 1).U
@@ -96,7 +104,12 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   private def lastAt(k: Int): Bool = lastRel(k)
   // Row v + below may still be arriving: column u of row v only needs column u of that row (vertical windows and
   // the column pass's markers, which are written while that column is taken), read 2 columns behind the input.
-  private val inAhead2: Bool = inCol > outCol +& 1.U
+  // inAhead2 = inCol > outCol + 1, as a register formed a cycle early from this cycle's counters (the output's move
+  // is known; the input's is seen a cycle late, which only delays): the handshake no longer waits for a column
+  // compare. An input row ending now makes the next one start at column 0 (false: that row then counts as complete
+  // or is a new row the early rule must not see).
+  private val inAhead2: Bool = RegInit(false.B)
+  inAhead2 := !inRowDone && Mux(advancing, Mux(atLastCol, inCol > 1.U, inCol > outCol +& 2.U), inCol > outCol +& 1.U)
   private val early: Bool = if (below == 0) false.B
     else (0 until below).map(k => complete(k) && !lastAt(k)).reduce(_ && _) && ahead === below.U && inAhead2
   val rowReady: Bool = if (below == 0) complete(0)
@@ -105,8 +118,12 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   val width: UInt = RegNext(metaW(relNext(0)), 0.U)
   private val widthM1: UInt = RegNext(metaWm1(relNext(0)), 0.U)
   val isLast: Bool = lastAt(0)
-  /** outCol is the row's last column. */
-  val atLastCol: Bool = outCol === widthM1
+  // the last-column flag and outCol + 1 next cycle (rows are at least 2 wide: column 0 is never the last; widthM1
+  // holds the output row's width once that row is ready, so it is the right one whenever the output takes a pixel)
+  when(advancing) {
+    atLastCol := !atLastCol && outColP1 === widthM1
+    outColP1 := Mux(atLastCol, 1.U, outColP1 + 1.U)
+  }
   /** Window rows v + k, k = -above .. below, at column outCol; with whether that row exists in the frame. */
   def window: Seq[(UInt, Bool)] = (-above to below).map(k => windowTap(k))
   private def windowTap(k: Int): (UInt, Bool) = {
@@ -121,9 +138,8 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   def centre: UInt = column(outSlot)
   /** Call when output pixel (v, outCol) is taken. */
   def advanceOut(): Unit = {
-    outColNext := outCol + 1.U
+    advancing := true.B
     when(atLastCol) {
-      outColNext := 0.U
       outRowDone := true.B
       for (k <- -above to below) rel(k) := relNext(k)
     }

@@ -57,8 +57,8 @@ import chisel3.util._
   * Memories: every memory is block RAM (SyncReadMem), each read one cycle ahead at the address its reader holds next
   * cycle (D's row and column, A's pixel count, the beat each chain stage holds next, B's node) or at the address a
   * pipeline step forms for the next step. A read sees the writes of its own cycle (the memories are transparent);
-  * a write in the cycle after the read is forwarded by the reader (A1: A2's R write; A2: the previous pixel's first
-  * touch, through its touched flag). The delay line, row above and F map reads never meet a write of the same cycle
+  * a write in the cycle after the read is forwarded by the reader (A2: the previous pixel's first touch, through its
+  * touched flag, which also stands in for that pixel's R write missing from A1's word). The delay line, row above and F map reads never meet a write of the same cycle
   * (D reads rows A has finished, the row above was written frameW > 1 pixels earlier, C writes maps no beat in the
   * chain still needs); P is written a cycle after A asks, from registers, and B's read forwards that write and the
   * one asked for this cycle (A's last pixels write while B starts that row). K (written by B2), R and S (by A2) have
@@ -269,8 +269,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val inAKv = RegInit(false.B); val inAK = Reg(new AKBeat)
   val inA1v = RegInit(false.B); val inA1 = Reg(new A1Beat)
   val inA2v = RegInit(false.B); val inA2 = Reg(new A2Beat)
-  // A2's R write of this cycle (A1 forwards it: its R word was read a cycle earlier)
-  val a2RWrite = WireDefault(false.B); val a2PushTop = Wire(UInt(idW.W))
   /** A2 holds the last pixel of row aNext: B and C may start that row now. */
   val aLastInA2 = inA2v && inA2.p.lastCol
 
@@ -386,14 +384,16 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   inA1.node := inAK.node; inA1.connectU := inAK.connectU; inA1.cls := cls
 
   // ---- A1: the class's row-k entries ----
-  // R_k[cls]: the word read in AK, or the node A2 writes there now (the class touched first by the pixel in A2);
-  // S_k of that node is read now (and seen by A2: the read includes A2's write-back of this cycle). A2's rValid write
-  // of this cycle is not in the flag read here; A2 forwards it (hitPre). R_k's flags were cleared at the row start.
+  // R_k[cls]: the word read in AK; S_k of that node is read now (and seen by A2: the read includes A2's write-back of
+  // this cycle). A2's R and rValid writes of this cycle are not in the words read here, and nothing is forwarded in
+  // A1 (that kept A2's decision off the S read address): such a write means the pixel in A2 touched this class
+  // first, and A2 then finds hitR, takes rn as its top and uses none of rn, mWord and the rn compares below.
+  // R_k's flags were cleared at the row start.
   // The pixel in A2 is the previous one of the same row (a row's first pixel finds A2 empty); S_{k-1} is complete
   // for a row's first pixel (T takes it once the previous row's last pixel has left A0: that pixel's last S write
   // and finTop come no later than this pixel's AK read).
   val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
-  val rnRaw = Mux(a2RWrite && inA2.p.sl.r === inA1.sl.r && inA2.p.cls === inA1.cls, a2PushTop, rWordA)
+  val rnRaw = rWordA
   val mWord = sTab.read(1, addr(inA1.sl.s, rnRaw))
   inA2v := inA1v
   inA2.p := inA1
@@ -436,8 +436,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, satAdd(topSize +& mWord, v), satAdd(topSize, v))))
   topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
   lastTouchNew := inA2v && touchNew
-  a2RWrite := inA2v && touchNew
-  a2PushTop := pushTop
   when(inA2v) {
     when(q.newRun && topAnyBase) { sTab.write(addr(aS, top), topSize) } // the old top stops being the top
     for ((r, b) <- rValid.zipWithIndex) when(aP === b.U && touchNew) { r := r | UIntToOH(q.cls, W) }
@@ -552,8 +550,16 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dSlot = dD.cur
   val dVirt = dD.regRead(metaVirtual); val dFirst = dD.regRead(metaFirst); val dLast = dD.regRead(metaLast)
   val dLen = dD.regRead(metaLen); val dWd = dD.regRead(metaW); val dWm1 = dD.regRead(metaWm1)
-  val dReady = dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext) // aNext >= dNext + 1, cNext >= dNext + n + 1
+  // aNext >= dNext + 1, cNext >= dNext + n + 1: a register formed a cycle early, so the issue (and the chain's map
+  // read addresses after it) waits for no counter compare. Exact for D's own row change; A's and C's progress of
+  // this cycle is seen a cycle late, which only delays a row's start. At a row end it takes the next row's test,
+  // made a cycle earlier still (false in the cycle after a row change, when that test was of the row now current).
+  val dRowEnd = dVirt || dCol === dWm1
+  val dReadyNextRow = RegNext(!dNextIncW && dAN >= 2.S &&
+    (metaVirtual(dD.succ) || dCN > (metaLen(dD.succ) +& 1.U).zext), false.B)
+  val dReady = RegInit(false.B)
   val issue = dReady && advance
+  dReady := Mux(issue && dRowEnd, dReadyNextRow, dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext))
   // read one cycle ahead, at the row and column D holds next cycle: both candidates come from registers and the
   // issue decision only picks one (it stays off the slot x W + column adder)
   val dAddrNow = addr(dD.cur, dCol)
@@ -574,7 +580,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   s0.bits.cols := dWd
   s0.bits.virt := dVirt
   when(issue) {
-    when(dVirt || dCol === dWm1) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
+    when(dRowEnd) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
   }
   // stage i (1..L) applies F_{seq + i} when i <= n. The maps are read one cycle ahead: each port's address comes
   // from the beats the stages hold next cycle (stagesNext), so a stage's lookup reads the data of its own beat.
