@@ -251,25 +251,34 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
   val needDiv = useList && !bHere && both && near && !segReady
 
   // decide (sNode) into registers, emit (sEmit): the memory reads and the jump / pair arithmetic sit in
-  // different cycles (3 cycles per node). Every value but the interpolated one is final in sNode, so sEmit only
-  // chooses between two registers.
+  // different cycles (3 cycles per node). sNode registers the candidates and the choices, so sEmit only selects
+  // among registers.
   val selHere = Reg(Bool()) //  a support: fixedVal
   val selPair = Reg(Bool()) //  interpolated: pairQ
-  val fixedVal = Reg(UInt(dBits.W)) // a support, a copy, row 0 all zero, one side only, or the jump
+  val fixedVal = Reg(UInt(dBits.W)) // a support, a copy, row 0 all zero, or one side only
   // The jump takes the one of lo <= hi nearer the value above, a tie to lo: |hi - up| < |lo - up| exactly when
   // 2 up > lo + hi = aVal + bVal (for lo < hi; for lo = hi both give the same value), one add and one compare.
+  // As one choice of bVal or aVal: the jump takes bVal when "hi" and "b is the higher" agree.
   val jumpHi = useAbove && (up << 1) > (aVal +& bVal)
-  val jump = Mux(jumpHi, hi, lo)
+  val jumpToB = jumpHi === (aVal < bVal)
+  val selJump = Reg(Bool())
+  val jumpB = Reg(Bool())
+  val jumpA = Reg(UInt(dBits.W))
+  val jumpBVal = Reg(UInt(dBits.W))
   when(state === sNode && !needDiv) {
-    val selOne = zeros || !useList || bHere || !aValid || !kIn // a copy, row 0 all zero, or one side only
     selHere := useList && bHere
     selPair := useList && !bHere && both && near
-    fixedVal := Mux(selOne, Mux(zeros, 0.U, Mux(!useList, up, Mux(bHere || !aValid, bVal, aVal))), jump)
+    // the jump's choice is registered beside both candidates (choosing in sNode put it behind the list read)
+    selJump := !(zeros || !useList || bHere || !aValid || !kIn)
+    jumpB := jumpToB
+    jumpA := aVal
+    jumpBVal := bVal
+    fixedVal := Mux(zeros, 0.U, Mux(!useList, up, Mux(bHere || !aValid, bVal, aVal)))
     pairQ := qNext
     pairR := rNext
     state := sEmit
   }
-  value := Mux(selPair, pairQ.asUInt(dBits - 1, 0), fixedVal)
+  value := Mux(selPair, pairQ.asUInt(dBits - 1, 0), Mux(selJump, Mux(jumpB, jumpBVal, jumpA), fixedVal))
 
   when(state === sNode && needDiv) {
     val gNew = bIdx - aIdx
