@@ -85,7 +85,10 @@ abstract class LatticeFill(p: ElasParams) extends Module {
   val procJ = RegInit(0.U(rowW.W))
 
   val start = io.in.valid && io.in.bits.sof && !inBusy && !procBusy
-  val slotFree = rowsIn < procJ +& slots.U // the slot of row rowsIn last held row rowsIn - slots
+  // the slot of row rowsIn last held row rowsIn - slots: free when rowsIn - procJ < slots, kept as a register
+  // (the add and compare of rowsIn and procJ in front of ready set the unit's clock)
+  val ahead = new RowsAhead(rowW, slots - 1)
+  val slotFree = ahead.free
   io.in.ready := Mux(inBusy, slotFree, !io.in.bits.sof || !procBusy)
   val write = io.in.fire && (inBusy || start)
   val writeCol = Mux(start, 0.U, colIn)
@@ -122,6 +125,9 @@ abstract class LatticeFill(p: ElasParams) extends Module {
       when(io.in.bits.eof) { inBusy := false.B; frameDone := true.B }
     }
   }
+
+  private val rowOut = WireDefault(false.B) // the walk leaves row procJ
+  ahead.update(start, write && io.in.bits.eol, rowOut)
 
   // ---- the walk over the rows ----
   val sIdle :: sRowWait :: sRead :: sNode :: sDiv :: sEmit :: Nil = Enum(6)
@@ -197,6 +203,7 @@ abstract class LatticeFill(p: ElasParams) extends Module {
     uRaw := uRaw + step.U
     state := sRead
     when(eol) {
+      rowOut := true.B
       procJ := procJ + 1.U
       procSlot := nextSlot(procSlot)
       vRaw := vRaw + step.U
@@ -236,30 +243,42 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
   val carry = rSum >= (g << 1)
   val qNext = segQ + qd + carry.asUInt.zext
   val rNext = Mux(carry, rSum - (g << 1), rSum)
+  // (q, r) of the node being decided, registered in sNode: the pair's add-and-carry then stays out of sEmit's
+  // output path (segQ, segR hold from sNode until the node is emitted)
+  val pairQ = Reg(SInt((dBits + 2).W))
+  val pairR = Reg(UInt((gW + 2).W))
 
   val needDiv = useList && !bHere && both && near && !segReady
 
   // decide (sNode) into registers, emit (sEmit): the memory reads and the jump / pair arithmetic sit in
-  // different cycles (3 cycles per node)
-  val selHere = Reg(Bool()) //  a support: selVal
-  val selOne = Reg(Bool()) //   a copy, row 0 all zero, or one side only: selVal
-  val selPair = Reg(Bool()) //  interpolated: (q, r) of the pair
-  val selVal = Reg(UInt(dBits.W))
-  val rLo = Reg(UInt(dBits.W))
-  val rHi = Reg(UInt(dBits.W))
-  val rUp = Reg(UInt(dBits.W))
+  // different cycles (3 cycles per node). sNode registers the candidates and the choices, so sEmit only selects
+  // among registers.
+  val selHere = Reg(Bool()) //  a support: fixedVal
+  val selPair = Reg(Bool()) //  interpolated: pairQ
+  val fixedVal = Reg(UInt(dBits.W)) // a support, a copy, row 0 all zero, or one side only
+  // The jump takes the one of lo <= hi nearer the value above, a tie to lo: |hi - up| < |lo - up| exactly when
+  // 2 up > lo + hi = aVal + bVal (for lo < hi; for lo = hi both give the same value), one add and one compare.
+  // As one choice of bVal or aVal: the jump takes bVal when "hi" and "b is the higher" agree.
+  val jumpHi = useAbove && (up << 1) > (aVal +& bVal)
+  val jumpToB = jumpHi === (aVal < bVal)
+  val selJump = Reg(Bool())
+  val jumpB = Reg(Bool())
+  val jumpA = Reg(UInt(dBits.W))
+  val jumpBVal = Reg(UInt(dBits.W))
   when(state === sNode && !needDiv) {
     selHere := useList && bHere
-    selOne := zeros || !useList || bHere || !aValid || !kIn
     selPair := useList && !bHere && both && near
-    selVal := Mux(zeros, 0.U, Mux(!useList, up, Mux(bHere || !aValid, bVal, aVal)))
-    rLo := lo
-    rHi := hi
-    rUp := up
+    // the jump's choice is registered beside both candidates (choosing in sNode put it behind the list read)
+    selJump := !(zeros || !useList || bHere || !aValid || !kIn)
+    jumpB := jumpToB
+    jumpA := aVal
+    jumpBVal := bVal
+    fixedVal := Mux(zeros, 0.U, Mux(!useList, up, Mux(bHere || !aValid, bVal, aVal)))
+    pairQ := qNext
+    pairR := rNext
     state := sEmit
   }
-  val jump = Mux(useAbove && absDiff(rHi, rUp) < absDiff(rLo, rUp), rHi, rLo) // a tie goes to lo
-  value := Mux(selOne, selVal, Mux(selPair, qNext.asUInt(dBits - 1, 0), jump))
+  value := Mux(selPair, pairQ.asUInt(dBits - 1, 0), Mux(selJump, Mux(jumpB, jumpBVal, jumpA), fixedVal))
 
   when(state === sNode && needDiv) {
     val gNew = bIdx - aIdx
@@ -290,14 +309,14 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
   }
   lateWrite(above, doEmit, col(i), value)
   when(doEmit) {
-    when(pairStep) { segQ := qNext; segR := rNext }
+    when(pairStep) { segQ := pairQ; segR := pairR }
     when(selHere) { segReady := false.B }
   }
   when(state === sRowWait) { segReady := false.B }
   pairStep := selPair
   doEmit := state === sEmit && output.free
   here := selHere
-  hereVal := selVal
+  hereVal := fixedVal
 
   rowReady := frameDone || Mux(procJ === 0.U, rowsIn >= 3.U, rowsIn > procJ)
   // row 0 (never a support row): the first of rows 1..2 with a support, filled without a row above

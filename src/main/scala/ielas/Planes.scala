@@ -189,11 +189,15 @@ class PlaneEngine(p: ElasParams) extends Module {
   def times(a: SInt, b: UInt): SInt = b.asBools.zipWithIndex.map { case (bit, k) => Mux(bit, a << k, 0.S) }.reduce(_ +& _)
   def times10(a: UInt): UInt = (a << 3) +& (a << 1)
   def times7(a: UInt): UInt = (a << 3) -& a
-  val valid = dA.zip(n).map { case (a, nn) =>
-    val absA10 = times10(RoundDivider.absU(a))
-    absA10 < times7(job.w) && nn =/= 0.S && absA10 < times7(RoundDivider.absU(nn))
-  }
+  // the validity test in two cycles: |dA| and |n| registered in sPrep, the comparisons in sLoad (valid is first
+  // needed at sDone; differences, magnitudes and comparisons in one cycle were 7 to 8 LUT levels)
+  val absDA = Reg(Vec(2, chiselTypeOf(RoundDivider.absU(dA(0)))))
+  val absN = Reg(Vec(2, chiselTypeOf(RoundDivider.absU(n(0)))))
   val nZeroReg = Reg(Vec(2, Bool()))
+  val valid = (0 until 2).map { t =>
+    val absA10 = times10(absDA(t))
+    absA10 < times7(job.w) && !nZeroReg(t) && absA10 < times7(absN(t))
+  }
   val validReg = Reg(Vec(2, Bool()))
 
   // Pipeline of one cell: sPrep registers the dividers' operands (differences, n, products), sLoad the dividers'
@@ -219,8 +223,15 @@ class PlaneEngine(p: ElasParams) extends Module {
 
   switch(state) {
     is(sIdle) { when(io.start) { job := io.job; state := sPrep } }
-    is(sPrep) { nZeroReg := VecInit(nZero); validReg := VecInit(valid); state := sLoad }
-    is(sLoad) { state := sStart }
+    is(sPrep) {
+      nZeroReg := VecInit(nZero)
+      for (t <- 0 until 2) {
+        absDA(t) := RoundDivider.absU(dA(t))
+        absN(t) := RoundDivider.absU(n(t))
+      }
+      state := sLoad
+    }
+    is(sLoad) { validReg := VecInit(valid); state := sStart }
     is(sStart) { count := (iters - 1).U; state := sRun }
     is(sRun) {
       count := count - 1.U
@@ -282,11 +293,14 @@ class RoundDivider(maxN: BigInt, maxD: BigInt, iters: Int) extends Module {
     quo := RoundDivider.low(mag, qW)
     neg := m < 0.S
   }.elsewhen(io.step) {
+    // the three trial differences side by side, each one carry chain whose borrow is the comparison: the step is
+    // chains, then a select (comparing first and subtracting the chosen multiple after was two chains in series)
     val r4 = Cat(rem, quo(qW - 1, qW - 2))
-    val d2 = den << 1
-    val digit = Mux(r4 >= den3, 3.U, Mux(r4 >= d2, 2.U, Mux(r4 >= den, 1.U, 0.U)))
-    val sub = Mux(r4 >= den3, den3, Mux(r4 >= d2, d2, Mux(r4 >= den, den.pad(denW + 2), 0.U)))
-    rem := RoundDivider.low(r4 - sub, denW)
+    val Seq(diff1, diff2, diff3) = Seq(den.pad(denW + 2), den << 1, den3).map(r4 -& _)
+    val Seq(ge1, ge2, ge3) = Seq(diff1, diff2, diff3).map(d => !d(denW + 2)) // no borrow: r4 >= multiple
+    val digit = Mux(ge3, 3.U, Mux(ge2, 2.U, Mux(ge1, 1.U, 0.U)))
+    val next = Mux(ge3, diff3, Mux(ge2, diff2, Mux(ge1, diff1, r4.pad(denW + 3))))
+    rem := RoundDivider.low(next, denW)
     quo := Cat(quo(qW - 3, 0), digit)
   }
   // floor for a negative dividend: -(|M| div D) - (remainder != 0) = ~quo + (remainder == 0), one carry chain

@@ -106,3 +106,19 @@ class StreamFork[T <: Data](gen: T, n: Int) extends Module {
   io.in.ready := (0 until n).map(k => taken(k) || io.out(k).ready).reduce(_ && _)
   for (k <- 0 until n) taken(k) := Mux(io.in.fire, false.B, taken(k) || io.out(k).fire)
 }
+
+/** The rows a row buffer holds ahead of its reader (rowsIn - procJ) as a counter of its own, and whether the slot of
+  * the next input row is free (ahead <= maxAhead) as a register set from the counter's next value: an input ready
+  * built on `free` waits on no adder or compare of two counters. `clear` (start of frame) resets both counts.
+  */
+class RowsAhead(width: Int, maxAhead: Int) {
+  require(maxAhead >= 1)
+  val ahead: UInt = RegInit(0.U(width.W)).suggestName("rowsAhead")
+  val free: Bool = RegInit(true.B).suggestName("slotFree")
+  /** One cycle: an input row completes (rowIn) and/or the reader leaves a row (rowOut). */
+  def update(clear: Bool, rowIn: Bool, rowOut: Bool): Unit = {
+    ahead := Mux(clear, 0.U, ahead) + rowIn.asUInt - rowOut.asUInt
+    free := clear || Mux(rowIn === rowOut, ahead <= maxAhead.U,
+      Mux(rowIn, ahead <= (maxAhead - 1).U, ahead <= (maxAhead + 1).U))
+  }
+}

@@ -44,21 +44,25 @@ class SupportFilter(p: ElasParams) extends Module {
   val procJ = RegInit(0.U(rowW.W))
 
   val start = io.in.valid && io.in.bits.sof && !inBusy && !procBusy
-  val slotFree = rowsIn <= procJ +& (k + 1).U // the slot of row rowsIn last held row rowsIn - slots
+  // the slot of row rowsIn last held row rowsIn - slots: free when rowsIn - procJ <= k + 1, kept as a register
+  // (the add and compare of rowsIn and procJ in front of ready set the unit's clock)
+  val ahead = new RowsAhead(rowW, k + 1)
+  val slotFree = ahead.free
+  val rowsAhead = ahead.ahead
   io.in.ready := Mux(inBusy, slotFree, !io.in.bits.sof || !procBusy)
   val write = io.in.fire && (inBusy || start)
   val writeCol = Mux(start, 0.U, colIn)
   val writeRow = Mux(start, 0.U, rowsIn)
   val writeSlot = Mux(start, 0.U, inSlot)
 
-  val rows = Seq.fill(slots)(SyncReadMem(colsMax, valueType))
+  val rowMems = Seq.fill(slots)(SyncReadMem(colsMax, valueType))
   // Writes are registered (the input logic stays off the memories' read paths). A row is read only once the next
   // row has started (rowReady) or the frame is complete, so its last value is always written before it is read.
   val wrEnable = RegNext(write, false.B)
   val wrCol = RegNext(writeCol)
   val wrSlot = RegNext(writeSlot)
   val wrData = RegNext(io.in.bits.data)
-  for ((mem, s) <- rows.zipWithIndex) when(wrEnable && wrSlot === s.U) { mem.write(wrCol, wrData) }
+  for ((mem, s) <- rowMems.zipWithIndex) when(wrEnable && wrSlot === s.U) { mem.write(wrCol, wrData) }
 
   when(start) {
     inBusy := true.B; procBusy := true.B; frameDone := false.B
@@ -75,6 +79,11 @@ class SupportFilter(p: ElasParams) extends Module {
     }
   }
 
+  // rowsIn and procJ step at a row's eol (input and output side); start clears both (the previous frame is done)
+  val rowIn = write && io.in.bits.eol
+  val rowOut = WireDefault(false.B)
+  ahead.update(start, rowIn, rowOut)
+
   // ---- filtering ----
   val sIdle :: sCentre :: sFirst :: sScan :: sCount :: sEmit :: Nil = Enum(6)
   val state = RegInit(sIdle)
@@ -82,19 +91,7 @@ class SupportFilter(p: ElasParams) extends Module {
   val procSlot = RegInit(0.U(log2Ceil(slots).W))
   val readCol = Wire(UInt(colW.W))
   readCol := procI
-  val readData = rows.map(_.read(readCol(log2Ceil(colsMax) - 1, 0)))
-
-  /** The value of window row offset o (row procJ + o) in the column read last cycle, and whether that row exists. */
-  def windowRow(o: Int): (SInt, Bool) = {
-    val row = procJ.zext +& o.S
-    (VecInit(readData)(slotOf(o)), row >= 0.S && row < rowsIn.zext)
-  }
-  /** The slot of window row offset o: (procSlot + o) mod slots, |o| <= k < slots (one correction, no divider). */
-  def slotOf(o: Int): UInt = {
-    val t = procSlot +& (o + slots).U // slots - k .. 2 slots + k - 1
-    val s = if (o == 0) procSlot else Mux(t >= (2 * slots).U, t - (2 * slots).U, Mux(t >= slots.U, t - slots.U, t))
-    s(log2Ceil(slots) - 1, 0)
-  }
+  val readData = rowMems.map(_.read(readCol(log2Ceil(colsMax) - 1, 0)))
 
   val centre = Reg(valueType)
   val count = Reg(UInt(log2Ceil((2 * k + 1) * (2 * k + 1) + 1).W))
@@ -106,18 +103,24 @@ class SupportFilter(p: ElasParams) extends Module {
   val lastCol = RegNext(Mux(procI +& k.U < lw, procI + k.U, lw - 1.U))
 
   val rowReady = frameDone || rowsIn > procJ +& k.U
-  // Per node, fixed in sFirst (the window rows exist or not for the whole scan: rowReady holds rows up to procJ + k,
-  // or the frame is complete): each window row's memory, whether it exists, and the agreeing value range.
-  val rowSel = Reg(Vec(2 * k + 1, UInt(log2Ceil(slots).W)))
-  val rowOk = Reg(Vec(2 * k + 1, Bool()))
+  // Agreement is counted per row slot, not per window row: the window's 2k + 1 rows sit in distinct slots, so the
+  // count is the same, and each slot's comparison runs straight off its memory (no slot multiplexer per window row
+  // between the memories and the comparisons). Slot procSlot + d (mod slots) holds window row d (d <= k) or
+  // d - slots (d >= k + 2); d = k + 1 is outside the window. Whether that row exists is fixed once rowReady holds
+  // (rows up to procJ + k are in, or the frame is complete), so it is set in sCentre, every cycle until then.
+  val slotInWindow = Reg(Vec(slots, Bool()))
+  when(state === sCentre) {
+    val rowExists = (0 until slots).map { d =>
+      if (d <= k) rowsAhead > d.U // row procJ + d < rowsIn
+      else if (d == k + 1) false.B
+      else procJ >= (slots - d).U // row procJ - (slots - d) >= 0
+    }
+    for (s <- 0 until slots) slotInWindow(s) := VecInit((0 until slots).map(ps => rowExists((s - ps + slots) % slots)))(procSlot)
+  }
   val lo = Reg(SInt((p.dispBits + 2).W)) // max(centre - inconThreshold, 0): also excludes the empty nodes (-1)
   val hi = Reg(SInt((p.dispBits + 2).W)) // centre + inconThreshold
-  // Counting, two stages: the column read last cycle -> one agreement bit per window row -> count.
-  val selected = VecInit(readData)
-  val agree = RegNext(VecInit(rowSel.zip(rowOk).map { case (sel, ok) =>
-    val v = selected(sel)
-    ok && v >= lo && v <= hi
-  }))
+  // Counting, two stages: the column read last cycle -> one agreement bit per slot -> count.
+  val agree = RegNext(VecInit(readData.zip(slotInWindow).map { case (v, ok) => ok && v >= lo && v <= hi }))
   val agreeValid = RegNext(state === sScan, false.B)
   when(agreeValid) { count := count + PopCount(agree) }
 
@@ -139,6 +142,7 @@ class SupportFilter(p: ElasParams) extends Module {
     state := sCentre
     procI := procI + 1.U
     when(eol) {
+      rowOut := true.B
       procI := 0.U
       procJ := procJ + 1.U
       procSlot := Mux(procSlot === (slots - 1).U, 0.U, procSlot + 1.U)
@@ -154,16 +158,11 @@ class SupportFilter(p: ElasParams) extends Module {
       when(rowReady) { state := sFirst }
     }
     is(sFirst) {
-      val (v, _) = windowRow(0)
+      val v = VecInit(readData)(procSlot) // the centre node
       centre := v
       val vLo = v -& p.inconThreshold.S
       lo := Mux(vLo < 0.S, 0.S, vLo)
       hi := v +& p.inconThreshold.S
-      for (o <- -k to k) {
-        val (_, exists) = windowRow(o)
-        rowSel(o + k) := slotOf(o)
-        rowOk(o + k) := exists
-      }
       readCol := firstCol // the window's first column (read for nothing when the node is empty)
       count := 0.U
       when(v < 0.S) {
