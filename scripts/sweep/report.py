@@ -339,9 +339,9 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
             ("cycles/px", "cycles_per_pixel"), ("fps@200MHz (assumed)", "fps_200MHz"), ("latency rows", "latency_rows"),
             ("rob. bad-3", "robotics_bad3"), ("rob. D1", "robotics_d1"), ("rob. density", "robotics_density"),
             ("mb. bad-3", "middlebury_bad3"), ("mb. D1", "middlebury_d1"), ("mb. density", "middlebury_density"),
-            ("status", "status")]
+            ("commit", "commit"), ("status", "status")]
     L.append("| " + " | ".join(c for c, _ in cols) + " |")
-    L.append("|---|---|" + "---:|" * (len(cols) - 3) + "---|")
+    L.append("|---|---|" + "---:|" * (len(cols) - 4) + "---|---|")
     for r in rows:
         cells = []
         for c, k in cols:
@@ -354,6 +354,8 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
                 cells.append(fmt(r.get(k), 2) if r.get(k) else "-")
             elif k == "status":
                 cells.append("ok" if r["status"] == "ok" else f"failed: {r['reason']}")
+            elif k == "commit":  # the design a row was measured on (a partial rerun mixes commits)
+                cells.append(r.get("commit") or "-")
             else:
                 cells.append(fmt(r.get(k, "")))
         L.append("| " + " | ".join(cells) + " |")
@@ -478,6 +480,8 @@ def markdown(rows, agreement, plot_files, grid_name, wall, outdir, hwcheck=None,
           "middlebury twin (same card parameters) is used for its accuracy columns.",
           "- **lanes s/d**: support / dense SAD lanes, the lowest counts that keep 1 pixel per clock (`ElasParams."
           "supportLanesUsed` / `denseLanesUsed`).",
+          "- **commit**: the commit the row was measured on (`make sweep-point` reruns one point, so after a partial "
+          "rerun the rows can come from different designs).",
           "- **LUT, FF, RAMB36, RAMB18, DSP, LUT lvl**: Yosys 0.23 `synth_xilinx -family xc7 -flatten` (docs/"
           "synthesis.md), unit by unit down the module hierarchy (each module's own logic with its submodules as "
           "black boxes; a replicated unit such as the dense stage's `DescriptorSad` synthesised once and counted "
