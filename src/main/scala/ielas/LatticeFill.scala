@@ -158,8 +158,6 @@ abstract class LatticeFill(p: ElasParams) extends Module {
   val output = new OutputRegister(io.out)
 
   def absDiff(x: UInt, y: UInt): UInt = Mux(x > y, x - y, y - x)
-  val lo = Mux(aVal < bVal, aVal, bVal)
-  val hi = Mux(aVal < bVal, bVal, aVal)
 
   val eol = i === lw - 1.U
   val eof = eol && frameDone && procJ === rowsIn - 1.U
@@ -256,7 +254,8 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
   val selHere = Reg(Bool()) //  a support: fixedVal
   val selPair = Reg(Bool()) //  interpolated: pairQ
   val fixedVal = Reg(UInt(dBits.W)) // a support, a copy, row 0 all zero, or one side only
-  // The jump takes the one of lo <= hi nearer the value above, a tie to lo: |hi - up| < |lo - up| exactly when
+  // The jump takes the one of lo = min(aVal, bVal), hi = max(aVal, bVal) nearer the value above, a tie to lo:
+  // |hi - up| < |lo - up| exactly when
   // 2 up > lo + hi = aVal + bVal (for lo < hi; for lo = hi both give the same value), one add and one compare.
   // As one choice of bVal or aVal: the jump takes bVal when "hi" and "b is the higher" agree.
   val jumpHi = useAbove && (up << 1) > (aVal +& bVal)
