@@ -237,15 +237,19 @@ class DenseMatcher(p: ElasParams) extends Module {
   def frameEnd(q: Pos): Bool = rowEnd(q) && q.v === height - 1.U
   def nextCellRow(q: Pos): Bool = q.vIn === (step - 1).U && q.cr < lastCellRow
   def nextCellCol(q: Pos): Bool = q.uIn === (step - 1).U && q.cu < lastCell
-  def advance(q: Pos): Pos = {
+  /** The pixel after q. `below` (q.cr < lastCellRow) and the heights of cell rows q.cr and q.cr + 1 come in as
+    * registers (see `genBelow`), so the cell-row compares stay off the generator's per-pixel path.
+    */
+  def advance(q: Pos, below: Bool, hCur: UInt, hNext: UInt): Pos = {
     val n = Wire(new Pos)
+    val nextCr = q.vIn === (step - 1).U && below
     n := q
     when(rowEnd(q)) {
       n.u := 0.U; n.cu := 0.U; n.uIn := 0.U; n.gx := 0.U; n.uG := 0.U
       n.v := q.v + 1.U
       n.uh := 0.U
-      n.h := Mux(Mux(nextCellRow(q), q.cr + 1.U === lastCellRow, q.cr === lastCellRow), lastRowH, step.U)
-      when(nextCellRow(q)) { n.cr := q.cr + 1.U; n.vIn := 0.U }.otherwise { n.vIn := q.vIn + 1.U }
+      n.h := Mux(nextCr, hNext, hCur)
+      when(nextCr) { n.cr := q.cr + 1.U; n.vIn := 0.U }.otherwise { n.vIn := q.vIn + 1.U }
       when(q.vG === (G - 1).U) { n.gy := q.gy + 1.U; n.vG := 0.U }.otherwise { n.vG := q.vG + 1.U }
     }.otherwise {
       n.u := q.u + 1.U
@@ -254,7 +258,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       when(q.uG === (G - 1).U) { n.gx := q.gx + 1.U; n.uG := 0.U }.otherwise { n.uG := q.uG + 1.U }
     }
     // h - vIn: a new cell row starts at vIn = 0; otherwise h stays (one height per cell row) and vIn counts up
-    n.up := Mux(rowEnd(q), Mux(nextCellRow(q), n.h, q.up - 1.U), q.up)
+    n.up := Mux(rowEnd(q), Mux(nextCr, n.h, q.up - 1.U), q.up)
     n
   }
   // The last cell row's height min(step, H - 1 - y0) (every other cell row is step high), for the pixel generator.
@@ -307,6 +311,12 @@ class DenseMatcher(p: ElasParams) extends Module {
   // pixel generator: pixel P = n - dispMax enters stage A with stream position n
   val gen = Reg(new Pos)
   val genActive = RegInit(false.B)
+  // gen's cell-row facts, a register behind gen: its cell row changes only at a row end, and the next row end that
+  // reads them is a row (>= 2 pixels) later; lastCellRow and lastRowH settle within 3 cycles of sof, long before
+  // gen's first row end (the primer lag is D steps).
+  val genBelow = RegNext(gen.cr < lastCellRow)
+  val genHCur = RegNext(Mux(gen.cr === lastCellRow, lastRowH, step.U))
+  val genHNext = RegNext(Mux(gen.cr +& 1.U === lastCellRow, lastRowH, step.U))
   val lag = RegInit(0.U(log2Ceil(D + 1).W))
   val sofPending = RegInit(false.B) // a frame the primer has not started yet
   val aAddr = Reg(UInt(ringW.W)) //     ring address of a's pixel (its stream position)
@@ -336,7 +346,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       a := gen
       aFirst := gen.u === 0.U
       aAddr := wp - D.U
-      gen := advance(gen)
+      gen := advance(gen, genBelow, genHCur, genHNext)
       when(frameEnd(gen)) { genActive := false.B }
     }
   }.elsewhen(upAdv) {
@@ -624,11 +634,17 @@ class DenseMatcher(p: ElasParams) extends Module {
     val live = Vec(2, Bool())
     val dp = Vec(2, SInt(termW.W)) // the plane's disparity (rounded)
     val priorOn = Vec(2, Bool())
+    val listLive = Vec(2, Vec(S, Bool())) // grid entry k comes before the list's first -1
   }
   val (b3Valid, b3) = upStage(new StageB3, b2Valid) { r =>
     r.carry := b2.carry
     r.live := b2.live
     r.priorOn := b2.priorOn
+    for (view <- 0 until 2) {
+      // each entry's own OR over the signs before it (a balanced tree; a scan chains its ANDs through the LUTs)
+      val negative = VecInit(b2.carry.grid(view).map(_ < 0.S)).asUInt
+      for (k <- 0 until S) r.listLive(view)(k) := !negative(k, 0).orR
+    }
     for (view <- 0 until 2) {
       val t = b2.terms(view)
       r.dp(view) := (t(2) +& t(0) +& t(1) +& (1 << 15).S) >> 16
@@ -642,6 +658,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val live = Vec(2, Bool())
     val reach = Vec(2, SInt((colW + 1).W))
     val grid = Vec(2, Vec(S, SInt(dispW.W)))
+    val gridOk = Vec(2, Vec(S, Bool())) // grid entry k is before the list's first -1 and within reach
     val lo = Vec(2, UInt(p.signedDispBits.W))
     val hi = Vec(2, UInt(p.signedDispBits.W))
     val empty = Vec(2, Bool())
@@ -659,6 +676,13 @@ class DenseMatcher(p: ElasParams) extends Module {
     c.live := b3.live
     c.reach := b3.carry.reach
     c.grid := b3.carry.grid
+    for (view <- 0 until 2) {
+      // the reach compare, a register ahead of the range compares it joins in stage C
+      for (k <- 0 until S) {
+        val du = b3.carry.grid(view)(k).asUInt(p.dispBits - 1, 0)
+        c.gridOk(view)(k) := b3.listLive(view)(k) && du.zext <= b3.carry.reach(view)
+      }
+    }
     c.sof := b3.carry.sof
     c.eol := b3.carry.eol
     c.eof := b3.carry.eof
@@ -698,13 +722,12 @@ class DenseMatcher(p: ElasParams) extends Module {
     val lo = c.lo(view)
     val hi = c.hi(view)
     def legal(d: UInt): Bool = d.zext <= c.reach(view)
-    val listLive = c.grid(view).map(_ >= 0.S).scanLeft(true.B)(_ && _).tail
     val gridCands = (0 until S).map { k =>
       val d = c.grid(view)(k)
       val du = d.asUInt(p.dispBits - 1, 0)
       val inRange = !c.empty(view) && du >= lo && du <= hi
       val x = Wire(new Cand)
-      x.valid := listLive(k) && !inRange && legal(du) // the list ends at the first -1
+      x.valid := c.gridOk(view)(k) && !inRange // the list ends at the first -1
       x.d := du
       x.prior := 0.S
       x

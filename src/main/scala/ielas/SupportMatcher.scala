@@ -339,7 +339,7 @@ class SupportMatcher(p: ElasParams) extends Module {
     (0 until levels).foldLeft(xs)((ys, _) => ys.grouped(2).map(g => merge(g(0), g(1), left)).toSeq)
 
   // A: per lane (target column c1 = jL + k and its partner c1 + 2r, in this block or the one issued before) the four
-  // SADs, each summed from four quarter-descriptor SADs (one register per SAD, not per quarter); whether c1 is in
+  // SADs from quarter-descriptor SADs, registered as two half costs (not per quarter); whether c1 is in
   // the sweep and its d (left d = maxC1 - c1, right c1 - minC1)
   private val sadParts = 4
   private val partBits = 8 * p.descriptorBytes / sadParts
@@ -354,7 +354,8 @@ class SupportMatcher(p: ElasParams) extends Module {
       val partner = if (k + 2 * r < banks) cur(k + 2 * r) else prevBlock(kind)(k + 2 * r - banks)
       partSads(refLo(kind), cur(k)) ++ partSads(refHi(kind), partner)
     }
-    RegEnable(VecInit(parts.grouped(sadParts).map(SupportMatcher.sumTree).toSeq), s0Valid) // the four SADs
+    // two half costs (the left and right descriptor kinds' SAD pairs): B adds them and compares in one adder depth
+    RegEnable(VecInit(parts.grouped(2 * sadParts).map(SupportMatcher.sumTree).toSeq), s0Valid)
   }
   val aLane = (0 until lanes).map { k =>
     val inSweep = k.U >= s0LaneLo && k.U < s0LaneEnd
@@ -367,10 +368,18 @@ class SupportMatcher(p: ElasParams) extends Module {
   private val levelsC = (levels - levelsB + 1) / 2
   val bValid = RegNext(aValid, false.B)
   val bTag = RegEnable(aTag, aValid)
-  val laneBest = aSad.zip(aLane).map { case (sads, (inSweep, d)) =>
-    best(Mux(inSweep, SupportMatcher.sumTree(sads), costInf), d, costInf)
+  // The first level compares the raw lane costs and folds "lane in the sweep" into the decision and the outputs, so
+  // no costInf multiplexer sits between the adder and the compare.
+  val laneCost = aSad.map(SupportMatcher.sumTree)
+  require(levelsB == 1)
+  val bBest = (0 until lanes by 2).map { k =>
+    val (ia, da) = aLane(k); val (ib, db) = aLane(k + 1)
+    val (ea, eb) = (laneCost(k), laneCost(k + 1))
+    // lane k + 1 wins (merge's rule on costs with costInf outside the sweep; it holds the smaller d when left)
+    val w = Mux(aTag.left, Mux(ib, !ia || eb <= ea, !ia), ib && (!ia || eb < ea))
+    val eaOr = Mux(ia, ea, costInf); val ebOr = Mux(ib, eb, costInf)
+    RegEnable(best(Mux(w, ebOr, eaOr), Mux(w, db, da), Mux(w, eaOr, ebOr)), aValid)
   }
-  val bBest = treeLevels(laneBest, levelsB, aTag.left).map(RegEnable(_, aValid))
   // C, E: the rest of the lane tree (ascending lanes, ties to the smaller d), about half of its levels each
   val cValid = RegNext(bValid, false.B)
   val cTag = RegEnable(bTag, bValid)
