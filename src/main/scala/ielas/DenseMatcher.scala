@@ -612,14 +612,20 @@ class DenseMatcher(p: ElasParams) extends Module {
       r.plane(view) := ownerPlanes(view)
     }
   }
+  private val listBlock = 6 // grid entries per block of the list-end search (one LUT6 per block OR)
+  private val listBlocks = (S + listBlock - 1) / listBlock
   class StageB2 extends Bundle {
     val carry = new Carry
     val live = Vec(2, Bool()) // inside the margins and textured
     val terms = Vec(2, Vec(3, SInt(termW.W))) // a du, b dv, c
     val priorOn = Vec(2, Bool())
+    val negBlock = Vec(2, Vec(listBlocks, Bool())) // some grid entry of block i (entries 6i .. 6i + 5) is -1
   }
   val (b2Valid, b2) = upStage(new StageB2, b1Valid) { r =>
     r.carry := b1.carry
+    for (view <- 0 until 2; i <- 0 until listBlocks) {
+      r.negBlock(view)(i) := b1.carry.grid(view).slice(listBlock * i, listBlock * (i + 1)).map(_ < 0.S).reduce(_ || _)
+    }
     for (view <- 0 until 2) {
       val pl = b1.plane(view)
       r.live(view) := b1.inside && b1.texture(view).reduceTree(_ +& _) >= p.matchTexture.U
@@ -641,9 +647,14 @@ class DenseMatcher(p: ElasParams) extends Module {
     r.live := b2.live
     r.priorOn := b2.priorOn
     for (view <- 0 until 2) {
-      // each entry's own OR over the signs before it (a balanced tree; a scan chains its ANDs through the LUTs)
-      val negative = VecInit(b2.carry.grid(view).map(_ < 0.S)).asUInt
-      for (k <- 0 until S) r.listLive(view)(k) := !negative(k, 0).orR
+      // entry k is live when no block before its own and no entry of its own block up to k is -1: two LUT levels
+      // over registered block ORs (a scan, or even one OR per entry, maps to a chain of LUTs 5-8 deep at S = 40)
+      for (k <- 0 until S) {
+        val i = k / listBlock
+        val before = b2.negBlock(view).take(i)
+        val own = b2.carry.grid(view).slice(listBlock * i, k + 1).map(_ < 0.S)
+        r.listLive(view)(k) := !(before ++ own).reduce(_ || _)
+      }
     }
     for (view <- 0 until 2) {
       val t = b2.terms(view)

@@ -269,8 +269,9 @@ class SupportMatcher(p: ElasParams) extends Module {
     a.split := split
     a
   }
-  val bankRead = WireDefault(readAddress(readView, readWord, readSplit))
-  val bankAddr = VecInit((0 until banks).map(b => Mux(b.U < bankRead.split, bankRead.next, bankRead.word)))
+  def bankAddresses(a: ReadAddress): Vec[UInt] = VecInit((0 until banks).map(b => Mux(b.U < a.split, a.next, a.word)))
+  val bankRead = readAddress(readView, readWord, readSplit)
+  val bankAddr = WireDefault(bankAddresses(bankRead))
   val data = (0 until 2).map(kind => (0 until banks).map(b => RegNext(rowMem(kind)(b).read(bankAddr(b)))))
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
@@ -457,7 +458,7 @@ class SupportMatcher(p: ElasParams) extends Module {
     val c0 = UInt(colW.W) //   u' - r, u' = u - d1
     val maxC1 = UInt(colW.W) // u' - r + min(W - 1 - margin - u', dispMax)
     val j = UInt(blockW.W)
-    val read = new ReadAddress
+    val bankAddr = Vec(banks, UInt(addrW.W)) // each bank's address of the right reference read
   }
   def rightSetup(d1: UInt): RightSetup = {
     val s = Wire(new RightSetup)
@@ -467,10 +468,17 @@ class SupportMatcher(p: ElasParams) extends Module {
     val top2 = refTop2 - d
     s.maxC1 := Mux(top > rightLimit, rightLimit, top)(colW - 1, 0)
     s.j := blockOf(Mux(top2 > rightLimit2, rightLimit2, top2))
-    s.read := readAddress(true.B, blockOf(s.c0), s.c0(bankBits - 1, 0))
+    s.bankAddr := bankAddresses(readAddress(true.B, blockOf(s.c0), s.c0(bankBits - 1, 0)))
     s
   }
-  val rightNext = Mux(takeBlock, rightSetup(blockBest.d1), rightSetup(running.d1))
+  // The running best's setup is kept in a register that follows `running` (a left sweep's first block always
+  // replaces it, after its startLeft has set refC0 and the walk slot): the merge's compare then only selects between
+  // it and the block's setup. (Two setups computed from running.d1 and blockBest.d1 would be merged by Yosys'
+  // opt_share into one subtract after the compare's multiplexer.)
+  val blockSetup = rightSetup(blockBest.d1)
+  val runningSetup = Reg(new RightSetup)
+  when(eValid) { runningSetup := Mux(takeBlock, blockSetup, runningSetup) }
+  val rightNext = Mux(takeBlock, blockSetup, runningSetup)
   val decideLeft = state === sWait && leftDone
 
   switch(state) {
@@ -544,7 +552,7 @@ class SupportMatcher(p: ElasParams) extends Module {
       }
     }
   }
-  when(decideLeft) { bankRead := rightNext.read } // the right references, u' - r .. u' + r
+  when(decideLeft) { bankAddr := rightNext.bankAddr } // the right references, u' - r .. u' + r
   // the last right block of the next node waits until this node's decision has left
   when(state === sSweep && !phaseLeft && j === jLo && pendBusy) { hold := true.B }
 
