@@ -239,18 +239,16 @@ class SupportMatcher(p: ElasParams) extends Module {
   val maxC1 = RegInit(0.U(colW.W))
   // One read per bank and cycle. A reference read fetches the L consecutive columns from c0 = u - r on (banks below
   // c0 mod L read the next word), so u - r and u + r (2r < L) arrive together; a sweep reads the aligned block j.
-  val readView = WireDefault(phaseLeft) // sweep: the target view (the right one for the left sweep)
-  val readWord = WireDefault(j)
-  val readSplit = WireDefault(0.U(bankBits.W))
+  val refIssue = WireDefault(false.B) // a left reference read is issued this cycle (else the sweep reads block j)
+  val refC0Now = WireDefault(0.U(colW.W)) // ... its first column
   val readC0 = RegInit(0.U(colW.W)) // c0 of the reference read issued last cycle
   val refRead = RegInit(false.B) //  the data of this cycle: the current sweep's references
   val nextRead = RegInit(false.B) // ... the next node's left references (read while a left result is computed)
   refRead := false.B
   nextRead := false.B
-  def readReference(view: Bool, c0: UInt): Unit = {
-    readView := view
-    readWord := blockOf(c0)
-    readSplit := c0(bankBits - 1, 0)
+  def readLeftReference(c0: UInt): Unit = {
+    refIssue := true.B
+    refC0Now := c0
     readC0 := c0
   }
   /** The addresses of a read of word `word` (banks >= `split` of a reference read) and word + 1 (banks below it):
@@ -270,8 +268,11 @@ class SupportMatcher(p: ElasParams) extends Module {
     a
   }
   def bankAddresses(a: ReadAddress): Vec[UInt] = VecInit((0 until banks).map(b => Mux(b.U < a.split, a.next, a.word)))
-  val bankRead = readAddress(readView, readWord, readSplit)
-  val bankAddr = WireDefault(bankAddresses(bankRead))
+  // The sweep's and the left reference read's addresses are formed apart and selected last (a view multiplexer in
+  // front of one shared adder put the state decode on the address path).
+  val sweepWord = readAddress(phaseLeft, j, 0.U).word // sweep: the target view (the right one for the left sweep)
+  val refAddr = bankAddresses(readAddress(false.B, blockOf(refC0Now), refC0Now(bankBits - 1, 0)))
+  val bankAddr = WireDefault(Mux(refIssue, refAddr, VecInit(Seq.fill(banks)(sweepWord))))
   val data = (0 until 2).map(kind => (0 until banks).map(b => RegNext(rowMem(kind)(b).read(bankAddr(b)))))
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
@@ -489,7 +490,7 @@ class SupportMatcher(p: ElasParams) extends Module {
       }
     }
     is(sNode) {
-      readReference(false.B, walkU - r.U) // the node's references, used if it is searched (keeps the test off the address)
+      readLeftReference(walkU - r.U) // the node's references, used if it is searched (keeps the test off the address)
       when(!searched(walkU)) {
         // emitted here, after the previous node's decision
         when(rowReady && output.free && !pendBusy) {
@@ -528,7 +529,7 @@ class SupportMatcher(p: ElasParams) extends Module {
     is(sWait) { // the left result is 5 cycles behind its last block; the next node's references are read meanwhile
       when(prefetch) {
         prefetch := false.B
-        readReference(false.B, uNext - r.U)
+        readLeftReference(uNext - r.U)
         when(!nodeEol && searched(uNext)) {
           nextRead := true.B
           prefetched := true.B
@@ -540,8 +541,7 @@ class SupportMatcher(p: ElasParams) extends Module {
         curTexL := texBits(0) // read at uRef = u
         phaseLeft := false.B
         uRef := uRef - merged.d1(p.dispBits - 1, 0)
-        readView := true.B
-        readC0 := rightNext.c0
+        readC0 := rightNext.c0 // the read itself is rightNext.bankAddr (below)
         refRead := true.B
         sweepStart := true.B
         minC1 := rightNext.c0
