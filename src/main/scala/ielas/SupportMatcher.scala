@@ -225,6 +225,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   def searched(u: UInt): Bool = rowActive && u >= margin.U && u +& margin.U < width && dhiLOf(u) >= p.supportMinRange.U
   // the next node of this row (when not eol), registered: walkU is stable for cycles before it is used
   val uNext = RegNext(Mux(walkU +& step.U < width, walkU + step.U, width - 1.U))
+  val uNextC0 = RegNext(Mux(walkU +& step.U < width, walkU + step.U, width - 1.U) - r.U) // uNext - r, as uNext
   // per frame (width is held all frame): the last column t - r a right sweep may reach, W - 1 - margin - r, and + 2r
   val rightLimit = RegNext(width - (1 + margin + r).U)
   val rightLimit2 = RegNext(width - (1 + margin - r).U)
@@ -529,7 +530,7 @@ class SupportMatcher(p: ElasParams) extends Module {
     is(sWait) { // the left result is 5 cycles behind its last block; the next node's references are read meanwhile
       when(prefetch) {
         prefetch := false.B
-        readLeftReference(uNext - r.U)
+        readLeftReference(uNextC0) // a register: the reference address multiplexer follows no subtract
         when(!nodeEol && searched(uNext)) {
           nextRead := true.B
           prefetched := true.B
