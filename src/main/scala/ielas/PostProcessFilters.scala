@@ -166,11 +166,16 @@ class RowWindow(p: ElasParams, bits: Int, in: DecoupledIO[PostBeat]) {
   def tap(k: Int): UInt = ent(4 + k).data.asUInt
   /** Set when the centre is taken. */
   val take: Bool = WireDefault(false.B)
-  when(take) {
-    for (i <- 0 until N - 1) ent(i) := ent(i + 1)
-    colReg := Mux(centre.eol, 0.U, u + 1.U)
+  when(take) { colReg := Mux(centre.eol, 0.U, u + 1.U) }
+  // Each entry's next value, chosen by the take among its own word, the next entry's and the input; the entry the
+  // input goes to is decoded from `pending` (a register) for both cases, so the take only selects (it is not the
+  // index of a write that is decoded after it).
+  for (i <- 0 until N) {
+    val inHereTake = in.fire && (if (i >= 3) pending === (i - 3).U else false.B)
+    val inHereKeep = in.fire && (if (i >= 4) pending === (i - 4).U else false.B)
+    val shifted = if (i < N - 1) ent(i + 1) else ent(i)
+    ent(i) := Mux(take, Mux(inHereTake, in.bits, shifted), Mux(inHereKeep, in.bits, ent(i)))
   }
-  when(in.fire) { ent(Mux(take, pending +& 3.U, pending +& 4.U)) := in.bits }
   pending := pending + in.fire.asUInt - take.asUInt
 }
 

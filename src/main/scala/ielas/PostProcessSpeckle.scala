@@ -135,7 +135,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // F maps, one memory per row slot, {closed, size or node}. Chain stage i reads slot (seq + i) mod NF; stages of
   // one row read consecutive slots and only adjacent stages (across a row boundary) can meet on one slot, so two
   // read ports per slot suffice: even stages on port 0, odd stages on port 1.
-  val fMaps = Seq.fill(NF)(SyncReadMem(W, UInt((1 + fW).W)))
+  // A `Mem` read into a register (block RAM, read-first): no read that is used meets a write of its cycle (C writes
+  // a map only once D's beats that apply it are retired or not yet issued), so the transparency of a SyncReadMem
+  // (address compare and bypass multiplexer after the read address) would be dead logic on the chain's path.
+  val fMaps = Seq.fill(NF)(Mem(W, UInt((1 + fW).W)))
   // P: written by A, read by B only, at B's next node (one cycle ahead; block RAM). A's write of a node B reads next
   // cycle (A2's last pixels of the row B has just started) is forwarded.
   val pMem = SyncReadMem(2 * W, UInt(idW.W))
@@ -205,11 +208,17 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dDone = RegInit(0.U(seqW.W)) // rows retired by D (left the last chain stage)
   /** x - y of two row counters as a small signed register, updated with their increments: the engines' start
     * conditions compare these (a few bits) instead of 16-bit sequence numbers. Engines stay within ND + 2 rows. */
-  private def diff(incX: Bool, incY: Bool): SInt = {
-    val r = RegInit(0.S(9.W))
+  class RowDiff(incX: Bool, incY: Bool) {
+    val r: SInt = RegInit(0.S(9.W))
     r := r + incX.asUInt.zext - incY.asUInt.zext
-    r
+    /** pred(r) as a register: pred of r + 1, r and r - 1 is formed from r, the increments only select (the start
+      * conditions then read flip-flops, not a 9-bit compare after the increments). */
+    def is(pred: SInt => Bool): Bool = {
+      val next = Mux(incX === incY, pred(r), Mux(incX, pred(r +& 1.S), pred(r -& 1.S)))
+      RegNext(next, pred(0.S(9.W)))
+    }
   }
+  private def diff(incX: Bool, incY: Bool): RowDiff = new RowDiff(incX, incY)
   val dAB = diff(aIncW, bIncW) // aNext - bNext
   val dCB = diff(cIncW, bIncW) // cNext - bNext
   val dCA = diff(cIncW, aIncW) // cNext - aNext
@@ -217,8 +226,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dCT = diff(cIncW, tIncW) // cNext - tNext
   val dDT = diff(dDoneIncW, tIncW) // dDone - tNext
   val dDC = diff(dDoneIncW, cIncW) // dDone - cNext
-  val dAN = diff(aIncW, dNextIncW) // aNext - dNext
-  val dCN = diff(cIncW, dNextIncW) // cNext - dNext
+  val dAN = diff(aIncW, dNextIncW).r // aNext - dNext
+  val dCN = diff(cIncW, dNextIncW).r // cNext - dNext
 
   // ===== A: labelling, a pipeline T -> A0 -> A1 -> A2 (one pixel per clock) =====
   // T takes the input beat into registers (no logic on its bits) and does the row's start bookkeeping; A0 finds the
@@ -257,6 +266,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val rowStart = Bool(); val lastCol = Bool()
     val valid = Bool(); val newRun = Bool(); val node = UInt(idW.W); val connectU = Bool(); val cls = UInt(idW.W)
   }
+  private val clsLoBits = math.min(5, idW)
   class A2Beat extends Bundle {
     val p = new A1Beat
     val rv = Bool(); val rn = UInt(idW.W) // R_k flag and node of cls as known in A1
@@ -264,19 +274,21 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val hitPre = Bool() // the pixel then in A2 had the same class
     val neNode = Bool() // rn =/= node
     val eqT = Bool(); val eqN = Bool(); val eqR = Bool() // rn equals the pixel then in A2's top, node, rn
+    // cls decoded in two parts (low clsLoBits bits, the rest), so A2's touched-flag write is an AND of two of these
+    val clsLo = UInt((1 << clsLoBits).W); val clsHi = UInt((1 << (idW - clsLoBits)).W)
   }
   val inA0v = RegInit(false.B); val inA0 = Reg(new A0Beat)
   val inAKv = RegInit(false.B); val inAK = Reg(new AKBeat)
   val inA1v = RegInit(false.B); val inA1 = Reg(new A1Beat)
   val inA2v = RegInit(false.B); val inA2 = Reg(new A2Beat)
   /** A2 holds the last pixel of row aNext: B and C may start that row now. */
-  val aLastInA2 = inA2v && inA2.p.lastCol
+  val aLastInA2 = RegNext(inA1v && inA1.lastCol, false.B) // a register of its own (inA2.p.lastCol may become an SRL)
 
   // B (declared here: A0 reads K_{k-1} while B writes it)
   val bx = RegInit(0.U((idW + 1).W)) // B's node; 0 whenever B is idle
   val bxN = WireDefault(bx); bx := bxN
   // row bNext is labelled (aNext >= bNext + 1, or its last pixel is in A2), cNext + 1 >= bNext
-  val bCanStart = !bBusy && (dAB >= 1.S || dAB === 0.S && aLastInA2) && dCB >= -1.S
+  val bCanStart = !bBusy && (dAB.is(_ >= 1.S) || dAB.is(_ === 0.S) && aLastInA2) && dCB.is(_ >= -1.S)
   val bActive = bBusy || bCanStart
   val bComputed = Wire(UInt(idW.W)) // B2's K entry of this cycle
   val b1v = Wire(Bool()) // B1 holds a node of its row (B2 writes it next cycle)
@@ -285,9 +297,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // ---- T ----
   // row k = tNext: bNext >= k - 1, cNext + 1 >= k (or C writes its last entry of row k - 2 now), dDone + ND >= k + 1
-  val rowOk = !aBusy && !inA0v && dBT >= -1.S && (dCT >= -1.S || dCT === -2.S && c2Last) && dDT >= (1 - ND).S
+  val rowOk = !aBusy && !inA0v && dBT.is(_ >= -1.S) && (dCT.is(_ >= -1.S) || dCT.is(_ === -2.S) && c2Last) &&
+    dDT.is(_ >= (1 - ND).S)
   // B works on row k - 1 or is past it (the second pixel of a row needs K_{k-1}, see A0)
-  val bOnRow = dBT >= 0.S || dBT === -1.S && bActive
+  val bOnRow = dBT.is(_ >= 0.S) || dBT.is(_ === -1.S) && bActive
   val rowStartNow = !aBusy
   val col = Mux(aBusy, aCol, 0.U)
   val lastCol = col === frameW - 1.U
@@ -295,8 +308,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // one, so never in the cycle of this read. Read at the take, the word is there when the pixel is in A0.
   val upPos = RegInit(0.U((p.colBits + 1).W)) // pixels taken, mod 2^(colBits + 1) >= 2 maxWidth
   val upWord = upRows.read(upPos - frameW)
-  io.in.ready := inFrame && Mux(aBusy, aCol =/= 1.U || bOnRow, rowOk)
+  val aColIsOne = RegInit(false.B) // aCol === 1 (T waits for the row's second pixel), as a register
+  io.in.ready := inFrame && Mux(aBusy, !aColIsOne || bOnRow, rowOk)
   val take = io.in.fire
+  when(take) { aColIsOne := rowStartNow }
 
   // idle between frames: a beat starts a frame (size sampled now, the beat is taken from the next cycle on)
   when(!inFrame && !needVirtual && !aBusy && io.in.valid) {
@@ -404,6 +419,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   inA2.eqT := rnRaw === top; inA2.eqN := rnRaw === inA2.p.node; inA2.eqR := rnRaw === inA2.rn
   inA2.hitPre := inA2v && inA2.p.cls === inA1.cls
   inA2.neNode := rnRaw =/= inA1.node
+  inA2.clsLo := UIntToOH(inA1.cls(clsLoBits - 1, 0), 1 << clsLoBits)
+  inA2.clsHi := UIntToOH(inA1.cls >> clsLoBits, 1 << (idW - clsLoBits))
 
   // ---- A2: label state ----
   // hitR: the previous pixel touched this class first (its R write is not in A1's read): then rn is that pixel's
@@ -438,7 +455,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   lastTouchNew := inA2v && touchNew
   when(inA2v) {
     when(q.newRun && topAnyBase) { sTab.write(addr(aS, top), topSize) } // the old top stops being the top
-    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U && touchNew) { r := r | UIntToOH(q.cls, W) }
+    val touchMask = VecInit((0 until W).map(j => inA2.clsLo(j & ((1 << clsLoBits) - 1)) && inA2.clsHi(j >> clsLoBits))).asUInt
+    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U && touchNew) { r := r | touchMask }
     when(touchNew) { rTab.write(addr(aP, q.cls), pushTop) }
     when(q.newRun || touchOld) { pWen := true.B; pWAddr := addr(aP, pushTop); pWData := Mux(touchOld, rn, pushTop) }
     top := newTop
@@ -492,8 +510,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val c1v = RegInit(false.B); val c1Last = RegInit(false.B)
   val c1x = Reg(UInt(idW.W))
   // row cNext is labelled (aNext >= cNext + 1, or its last pixel is in A2), bNext >= cNext, dDone + NF >= cNext + 1
-  val cCanStart = !cBusy && !c1Last && !c2Last && (dCA <= -1.S || dCA === 0.S && aLastInA2) && dCB <= 0.S &&
-    dDC >= (1 - NF).S
+  val cCanStart = !cBusy && !c1Last && !c2Last && (dCA.is(_ <= -1.S) || dCA.is(_ === 0.S) && aLastInA2) &&
+    dCB.is(_ <= 0.S) && dDC.is(_ >= (1 - NF).S)
   val cActive = cBusy || cCanStart
   val cxEff = Mux(cBusy, cx, 0.U)
   c1v := cActive && cxEff < cPrevN
@@ -554,7 +572,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // read addresses after it) waits for no counter compare. Exact for D's own row change; A's and C's progress of
   // this cycle is seen a cycle late, which only delays a row's start. At a row end it takes the next row's test,
   // made a cycle earlier still (false in the cycle after a row change, when that test was of the row now current).
-  val dRowEnd = dVirt || dCol === dWm1
+  // dRowEnd = dVirt || dCol === dWm1, as a register formed a cycle ahead (the issue's row change and the read
+  // address wait for no column compare). Rows are at least 2 wide, so column 0 ends only the virtual row; a slot's
+  // meta changes only while D waits at column 0 of it (A0 or the virtual row's start write it before D may issue).
+  val dRowEnd = RegInit(false.B)
+  val dColP1 = RegInit(1.U(p.colBits.W)) // dCol + 1
   val dReadyNextRow = RegNext(!dNextIncW && dAN >= 2.S &&
     (metaVirtual(dD.succ) || dCN > (metaLen(dD.succ) +& 1.U).zext), false.B)
   val dReady = RegInit(false.B)
@@ -563,7 +585,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // read one cycle ahead, at the row and column D holds next cycle: both candidates come from registers and the
   // issue decision only picks one (it stays off the slot x W + column adder)
   val dAddrNow = addr(dD.cur, dCol)
-  val dAddrOn = Mux(dVirt || dCol === dWm1, addr(dD.succ, 0.U), dAddrNow + 1.U)
+  val dAddrOn = Mux(dRowEnd, addr(dD.succ, 0.U), dAddrNow + 1.U)
   val word = delay.read(Mux(issue, dAddrOn, dAddrNow))
   val s0 = Wire(Valid(new Beat))
   s0.valid := issue
@@ -574,14 +596,16 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   s0.bits.ptr := word(idW - 1, 0)
   s0.bits.n := dLen
   s0.bits.sof := !dVirt && dFirst && dCol === 0.U
-  s0.bits.eol := !dVirt && dCol === dWm1
-  s0.bits.eof := !dVirt && dCol === dWm1 && dLast
+  s0.bits.eol := !dVirt && dRowEnd
+  s0.bits.eof := !dVirt && dRowEnd && dLast
   s0.bits.lastRow := dLast
   s0.bits.cols := dWd
   s0.bits.virt := dVirt
   when(issue) {
-    when(dRowEnd) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
+    when(dRowEnd) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dColP1 }
   }
+  when(issue) { dColP1 := Mux(dRowEnd, 1.U, dColP1 + 1.U) }
+  dRowEnd := Mux(dNextIncW, metaVirtual(dD.succ), Mux(issue, dColP1 === dWm1, Mux(dCol === 0.U, metaVirtual(dD.cur), dRowEnd)))
   // stage i (1..L) applies F_{seq + i} when i <= n. The maps are read one cycle ahead: each port's address comes
   // from the beats the stages hold next cycle (stagesNext), so a stage's lookup reads the data of its own beat.
   private def target(b: Beat, k: Int): Bool = b.tgt(k)
@@ -612,7 +636,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val users = (1 to L).filter(_ % 2 == q)
     val sel = users.map(i => stagesNext(i - 1).valid && applies(i, stagesNext(i - 1).bits) && target(stagesNext(i - 1).bits, b))
     val address = if (users.isEmpty) 0.U else PriorityMux(sel :+ true.B, users.map(i => stagesNext(i - 1).bits.ptr(idW - 1, 0)) :+ 0.U)
-    portData(b)(q) := (if (users.isEmpty) 0.U else m.read(address))
+    portData(b)(q) := (if (users.isEmpty) 0.U else RegNext(m.read(address)))
   }
   when(advance) {
     val last = stages(L)
