@@ -626,8 +626,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // meta changes only while D waits at column 0 of it (A0 or the virtual row's start write it before D may issue).
   val dRowEnd = RegInit(false.B)
   val dColP1 = RegInit(1.U(p.colBits.W)) // dCol + 1
+  val dCNm1 = RegInit(-1.S(9.W)) // dCN - 1, kept as a register (the test below then has no adder after the slot mux)
+  dCNm1 := dCNm1 + cIncW.asUInt.zext - dNextIncW.asUInt.zext
   val dReadyNextRow = RegNext(!dNextIncW && dAN >= 2.S &&
-    (metaVirtual(dD.succ) || dCN > (metaLen(dD.succ) +& 1.U).zext), false.B)
+    (metaVirtual(dD.succ) || dCNm1 > metaLen(dD.succ).zext), false.B)
   val dReady = RegInit(false.B)
   val issue = dReady && advance
   dReady := Mux(issue && dRowEnd, dReadyNextRow, dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext))
