@@ -152,36 +152,34 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   when(pwEn) { pMem.write(addr(pwSlot, pwNode), pwData) }
   /** A table with one writer and several readers: one block-RAM replica per reader (1R1W each), all written alike.
     * A read is issued a cycle before its data is used and sees every write up to and including its own cycle; later
-    * writes are forwarded by the reader. For most readers the memory is transparent (SyncReadMem); a reader in
-    * `forwarded` has a read-first replica (a `Mem` read into a register) and the write of its read's cycle is
-    * forwarded here, compared by slot and entry: Yosys' transparency emulation would compare the whole addresses,
-    * after the slot x W + x adder, on the read address's path. */
-  class Table(name: String, slots: Int, width: Int, readers: Int, forwarded: Set[Int] = Set()) {
+    * writes are forwarded by the reader. Each replica is read-first (a `Mem` read into a register, Yosys' block RAM
+    * read register) and the write of the read's own cycle is forwarded here, compared by slot and entry: a
+    * transparent SyncReadMem would make Yosys compare the whole addresses, after the slot x W + x adders (and after
+    * the write's decision, which multiplexed the write address), on the read address's path. */
+  class Table(name: String, slots: Int, width: Int, readers: Int) {
     private val depth = slots * W
-    private val mems: Seq[Either[Mem[UInt], SyncReadMem[UInt]]] = Seq.tabulate(readers)(i =>
-      if (forwarded(i)) Left(Mem(depth, UInt(width.W)).suggestName(s"${name}_$i"))
-      else Right(SyncReadMem(depth, UInt(width.W)).suggestName(s"${name}_$i")))
+    private val mems = Seq.tabulate(readers)(i => Mem(depth, UInt(width.W)).suggestName(s"${name}_$i"))
+    // the address and data are don't-cares without a write, so they do not wait for the write's decision
     val wen = WireDefault(false.B)
-    val wslot = WireDefault(0.U((log2Ceil(slots) max 1).W))
-    val wx = WireDefault(0.U(idW.W))
-    val wdata = WireDefault(0.U(width.W))
+    val wslot = Wire(UInt((log2Ceil(slots) max 1).W)); wslot := DontCare
+    val wx = Wire(UInt(idW.W)); wx := DontCare
+    val wdata = Wire(UInt(width.W)); wdata := DontCare
     private val waddr = addr(wslot, wx)
-    when(wen) { mems.foreach(_.fold(_.write(waddr, wdata), _.write(waddr, wdata))) }
+    when(wen) { mems.foreach(_.write(waddr, wdata)) }
     def write(slot: UInt, x: UInt, d: UInt): Unit = { wen := true.B; wslot := slot; wx := x; wdata := d }
-    def read(reader: Int, slot: UInt, x: UInt): UInt = mems(reader) match {
-      case Right(m) => m.read(addr(slot, x))
-      case Left(m) =>
-        val word = RegNext(m.read(addr(slot, x)))
-        val hit = RegNext(wen && wslot === slot && wx === x, false.B)
-        Mux(hit, RegNext(wdata), word)
+    def read(reader: Int, slot: UInt, x: UInt): UInt = {
+      val word = Reg(UInt(width.W)); word := mems(reader).read(addr(slot, x))
+      val written = Reg(UInt(width.W)); written := wdata
+      val hit = RegNext(wen && wslot === slot && wx === x, false.B)
+      Mux(hit, written, word)
     }
   }
   // K: flat classes, 3 rows (B never waits for C to finish reading K_{k-2}); written by B2, read by A0, B1, C0.
   val kTab = new Table("kMem", 3, idW, 3)
   // R: class -> row-k node, 2 rows; written by A2, read by AK and C1.
-  val rTab = new Table("rMem", 2, idW, 2, forwarded = Set(0))
+  val rTab = new Table("rMem", 2, idW, 2)
   // S: saturating sizes, 3 rows; written by A2, read by AK (S_{k-1}), A1 (S_k) and C1 (S_{k-1}).
-  val sTab = new Table("sMem", 3, sW, 3, forwarded = Set(0))
+  val sTab = new Table("sMem", 3, sW, 3)
   val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
   /** The same lookup in two steps, for a register between them (a W:1 multiplexer is too deep for one step):
     * `groups` picks the flag at the index's low `lo` bits in each group of 2^lo classes (at most 2^hiBits groups;
@@ -588,7 +586,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // ===== D: output chain =====
   class Beat extends Bundle {
-    val tgt = UInt(NF.W) // one-hot: the map slot of the next lookup, (row sequence + stage + 1) mod NF
+    // one-hot: the map slot of the next lookup, (row sequence + stage + 1) mod NF; zero once the beat applies no
+    // more maps (invalid, closed or past its chain length, which is final), so it alone selects a map's read port
+    val tgt = UInt(NF.W)
     val slot = UInt(log2Ceil(NF).W) // the same slot as a number (the lookup's multiplexer: a binary tree is smaller)
     val value = SInt(vW.W)
     val closed = Bool()
@@ -640,7 +640,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val word = RegNext(delay.read(Mux(issue, dAddrOn, dAddrNow)))
   val s0 = Wire(Valid(new Beat))
   s0.valid := issue
-  s0.bits.tgt := UIntToOH(dF.succ, NF)
+  s0.bits.tgt := Mux(issue && s0.bits.value >= 0.S && dLen >= 1.U, UIntToOH(dF.succ, NF), 0.U)
   s0.bits.slot := dF.succ
   s0.bits.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
   s0.bits.closed := false.B
@@ -668,7 +668,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val apply = applies(i, b)
     val e = VecInit(portData.map(_(i % 2)))(b.slot)
     when(apply) { r.closed := e(fW); r.ptr := e(fW - 1, 0) }
-    r.tgt := (if (NF > 1) Cat(b.tgt(NF - 2, 0), b.tgt(NF - 1)) else b.tgt) // the next stage's map: one slot on
+    val nextApplies = b.value >= 0.S && !r.closed && (i + 1).U <= b.n
+    val rotated = if (NF > 1) Cat(b.tgt(NF - 2, 0), b.tgt(NF - 1)) else b.tgt // the next stage's map: one slot on
+    r.tgt := Mux(nextApplies, rotated, 0.U)
     r.slot := Mux(b.slot === (NF - 1).U, 0.U, b.slot + 1.U)
     r
   }
@@ -685,11 +687,12 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
       waits(i - 1) := stages(i - 1)
       stages(i).valid := waits(i - 1).valid
       stages(i).bits := lookup(i, waits(i - 1).bits)
+      when(!waits(i - 1).valid) { stages(i).bits.tgt := 0.U }
     }
   }
   for ((m, b) <- fMaps.zipWithIndex; q <- 0 until 2) {
     val users = (1 to L).filter(_ % 2 == q)
-    val sel = users.map(i => stages(i - 1).valid && applies(i, stages(i - 1).bits) && target(stages(i - 1).bits, b))
+    val sel = users.map(i => target(stages(i - 1).bits, b)) // (zero unless the beat is valid and applies F here)
     val address = if (users.isEmpty) 0.U else PriorityMux(sel :+ true.B, users.map(i => stages(i - 1).bits.ptr(idW - 1, 0)) :+ 0.U)
     portData(b)(q) := (if (users.isEmpty) 0.U else RegEnable(m.read(address), advance))
   }
@@ -730,11 +733,11 @@ object PostProcessSpeckle {
         "(L + 2) rows x maxWidth forward maps; one read-first Mem per row, 2 read ports (block RAM)"),
       MemoryUse("Speckle", "P", 2 * w, idW, "merge parents (2 rows); read-first Mem 1R1W (block RAM), read by B"),
       MemoryUse("Speckle", "K", 3 * 3 * w, idW,
-        "flat classes, 3 rows; one SyncReadMem 1R1W (block RAM) per reader (A0, B1, C0)"),
+        "flat classes, 3 rows; one read-first Mem 1R1W (block RAM, write forwarded) per reader (A0, B1, C0)"),
       MemoryUse("Speckle", "R", 2 * 2 * w, idW,
-        "class -> node, 2 rows; one 1R1W block RAM per reader (AK: read-first Mem, forwarded; C1: SyncReadMem)"),
+        "class -> node, 2 rows; one read-first Mem 1R1W (block RAM, write forwarded) per reader (AK, C1)"),
       MemoryUse("Speckle", "S", 3 * 3 * w, sW,
-        "saturating segment sizes, 3 rows; one 1R1W block RAM per reader (AK: read-first Mem, forwarded; A1, C1)"),
+        "saturating segment sizes, 3 rows; one read-first Mem 1R1W (block RAM, write forwarded) per reader (AK, A1, C1)"),
       MemoryUse("Speckle", "Rvalid", 2, w, "touched-class flags (registers)"))
   }
 }
