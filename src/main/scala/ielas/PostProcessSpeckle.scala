@@ -51,22 +51,23 @@ import chisel3.util._
   *  (W before the pipeline). B works in two steps (B1: P_k[x] is there, K_k[P_k[x]] is read; B2: K_k[x] is written),
   *  C in three (the class, its entry, the map write).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus L + 3 clocks of chain and A's steps; at W + 2 clocks a row that is within L + 2 rows of W
+  * about W nodes), plus 2 L + 3 clocks of chain and A's steps; at W + 2 clocks a row that is within L + 2 rows of W
   * for W >= 3 L + 10, and the 2 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
   * ceil(2 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
-  * Memories: every memory is block RAM (SyncReadMem), each read one cycle ahead at the address its reader holds next
-  * cycle (D's row and column, A's pixel count, the beat each chain stage holds next, B's node) or at the address a
-  * pipeline step forms for the next step. A read sees the writes of its own cycle (the memories are transparent);
-  * a write in the cycle after the read is forwarded by the reader (A2: the previous pixel's first touch, through its
-  * touched flag, which also stands in for that pixel's R write missing from A1's word). The delay line, row above and F map reads never meet a write of the same cycle
-  * (D reads rows A has finished, the row above was written frameW > 1 pixels earlier, C writes maps no beat in the
-  * chain still needs); P is written a cycle after A asks, from registers, and B's read forwards that write and the
-  * one asked for this cycle (A's last pixels write while B starts that row). K (written by B2), R and S (by A2) have
-  * one replica per reader (K: A0, B1, C0; R: AK, C1; S: AK, A1, C1). B, C and D read the per-row metadata from
-  * registers one cycle old (written at least two cycles before a row becomes theirs). Row slots are wrapping
-  * counters, not `seq % n`; D's chain beats carry their map slot one-hot (rotated by one per stage; it selects the
-  * read addresses) and as a number (it selects the read data: a binary multiplexer tree is far smaller than a one-hot
-  * AND-OR in LUTs).
+  * Memories: every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
+  * row and column, A's pixel count, B's node), at the address a pipeline step forms for the next step, or (D's chain)
+  * from a stage register, the beat waiting a clock for its word. A read sees the writes of its own cycle: the row
+  * above is a transparent SyncReadMem; the others are read-first (`Mem` read into a register, so Yosys emulates no
+  * transparency) and either never meet a write of their cycle (the delay line and F maps: D reads rows A has
+  * finished, C writes maps no beat in the chain still needs) or forward it: K, R, S (one replica per reader; K: A0,
+  * B1, C0; R: AK, C1; S: AK, A1, C1) compare the write's slot and entry with the read's, P (written a cycle after A
+  * asks, from registers) forwards that write and the one asked for this cycle (A's last pixels write while B starts
+  * that row). A write in the cycle after the read is forwarded by the reader (A2: the previous pixel's first touch,
+  * through its touched flag, which also stands in for that pixel's R write missing from A1's word). B, C and D read
+  * the per-row metadata from registers one cycle old (written at least two cycles before a row becomes theirs). Row
+  * slots are wrapping counters, not `seq % n`; D's chain beats carry their map slot one-hot (rotated by one per
+  * stage, zero once the beat applies no more maps; it selects the read ports) and as a number (it selects the read
+  * data: a binary multiplexer tree is far smaller than a one-hot AND-OR in LUTs).
   */
 class PostProcessSpeckle(p: ElasParams) extends Module {
   private val L = p.speckleWindowRows
