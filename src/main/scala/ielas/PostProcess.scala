@@ -75,18 +75,18 @@ object PostProcess {
     val w = p.maxWidth
     val g = columnWindow(p)
     PostProcessSpeckle.memorySummary(p) ++ Seq(
-      MemoryUse("PostRows", "rows", 2 * w, p.signedDispBits, "2 row slots; SyncReadMem (block RAM)"),
+      MemoryUse("PostRows", "rows", 2 * w, p.signedDispBits, "2 row slots; read-first Mem (block RAM)"),
       MemoryUse("PostRows", "runs", 2 * w, p.colBits + p.signedDispBits,
-        "run table (end column, right value), 2 rows; SyncReadMem (block RAM)"),
+        "run table (end column, right value), 2 rows; read-first Mem (block RAM)"),
       MemoryUse("PostCols", "rows", (g + 2) * w, 1 + p.rowBits + 1 + 16,
-        "(G + 2) row slots: value or fill, marker, end row; SyncReadMem (block RAM)"),
+        "(G + 2) row slots: value or fill, marker, end row; read-first Mem (block RAM)"),
       MemoryUse("PostCols", "columns", 2 * w, 1 + p.rowBits + 1 + 16,
-        "last valid above / running fill per column; 2 SyncReadMem (block RAM)")) ++
+        "last valid above (read-first Mem) / running fill (SyncReadMem) per column (block RAM)")) ++
       (if (p.filterAdaptiveMean) Seq(
         MemoryUse("PostMean", "windowH", 9, 16 + 4 + 14, "horizontal: 9 pixel registers (value, framing, width)"),
-        MemoryUse("PostMean", "rowsV", 9 * w, 16, "9 row slots (rows v-4..v+3 + 1); SyncReadMem (block RAM)")) else Nil) ++
+        MemoryUse("PostMean", "rowsV", 9 * w, 16, "9 row slots (rows v-4..v+3 + 1); read-first Mem (block RAM)")) else Nil) ++
       (if (p.filterMedian) Seq(
         MemoryUse("PostMedian", "windowH", 9, 16 + 4 + 14, "horizontal: 9 pixel registers (value, framing, width)"),
-        MemoryUse("PostMedian", "rowsV", 8 * w, 17, "8 row slots (rows v-3..v+3 + 1); SyncReadMem (block RAM)")) else Nil)
+        MemoryUse("PostMedian", "rowsV", 8 * w, 17, "8 row slots (rows v-3..v+3 + 1); read-first Mem (block RAM)")) else Nil)
   }
 }

@@ -37,7 +37,9 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   /** (slot - d) mod B for 0 <= slot < B and 0 <= d < B. */
   def wrapSub(slot: UInt, d: UInt): UInt = Mux(slot >= d, slot - d, slot +& B.U - d)(sW - 1, 0)
 
-  val mems: Seq[SyncReadMem[UInt]] = Seq.fill(B)(SyncReadMem(W, UInt(wordBits.W)))
+  // Read-first block RAM (a `Mem` read into a register): no read that is used meets a write of its cycle (below), so
+  // a SyncReadMem's transparency would only add an address compare and a bypass multiplexer after the read address.
+  val mems: Seq[Mem[UInt]] = Seq.fill(B)(Mem(W, UInt(wordBits.W)))
   val metaRow: Vec[UInt] = Reg(Vec(B, UInt(p.rowBits.W)))
   val metaLast: Vec[Bool] = Reg(Vec(B, Bool()))
   val metaW: Vec[UInt] = Reg(Vec(B, UInt(p.colBits.W)))
@@ -72,7 +74,7 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   val column: Vec[UInt] = VecInit(mems.zipWithIndex.map { case (m, s) => // one write port per slot, always at `col`
     val here = in.fire && inSlot === s.U
     when(here || extraWrite && extraSlot === s.U) { m.write(col, Mux(here, writeWord, extraWord)) }
-    m.read(outColNext)
+    RegNext(m.read(outColNext))
   })
   val inRowDone: Bool = in.fire && in.bits.eol
   when(in.fire) {
@@ -91,16 +93,21 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   // ---- output side ----
   val outSlot: UInt = RegInit(0.U(sW.W)) // outSeq mod B
   private val outRowDone = WireDefault(false.B)
-  ahead := ahead + inRowDone.asUInt - outRowDone.asUInt
+  // (ahead + 1 and ahead - 1 are formed from the register; the row ends only select)
+  ahead := Mux(inRowDone === outRowDone, ahead, Mux(inRowDone, ahead + 1.U, ahead - 1.U))
   /** slotAt(k) = (outSeq + k) mod B, k = -above .. below, as registers that advance with outSeq. */
   private val rel: Map[Int, UInt] = (-above to below).map(k =>
     k -> (if (k == 0) outSlot else RegInit((((k % B) + B) % B).U(sW.W)))).toMap
-  private val relNext: Map[Int, UInt] = rel.map { case (k, r) => k -> Mux(outRowDone, wrapInc(r), r) }
+  // (slotAt(k) + 1) mod B as registers too, so a row change only selects between two registers (and between two
+  // metadata reads below, each from registers), with no increment and slot multiplexer after the handshake
+  private val relSucc: Map[Int, UInt] = (-above to below).map(k => k -> RegInit((((k + 1) % B + B) % B).U(sW.W))).toMap
+  private val relNext: Map[Int, UInt] = rel.map { case (k, r) => k -> Mux(outRowDone, relSucc(k), r) }
+  private def metaNext[T <: Data](m: Vec[T], k: Int): T = Mux(outRowDone, m(relSucc(k)), m(rel(k)))
   def slotAt(k: Int): UInt = rel(k)
   private def complete(k: Int): Bool = ahead >= (k + 1).U
   // The metadata of rows outSeq .. outSeq + below, in registers reloaded every cycle from the slots they hold next
   // cycle. Read only for complete rows, whose metadata was written by their first pixel (rows are >= 2 wide).
-  private val lastRel: Map[Int, Bool] = (0 to below).map(k => k -> RegNext(metaLast(relNext(k)), false.B)).toMap
+  private val lastRel: Map[Int, Bool] = (0 to below).map(k => k -> RegNext(metaNext(metaLast, k), false.B)).toMap
   private def lastAt(k: Int): Bool = lastRel(k)
   // Row v + below may still be arriving: column u of row v only needs column u of that row (vertical windows and
   // the column pass's markers, which are written while that column is taken), read 2 columns behind the input.
@@ -114,9 +121,9 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
     else (0 until below).map(k => complete(k) && !lastAt(k)).reduce(_ && _) && ahead === below.U && inAhead2
   val rowReady: Bool = if (below == 0) complete(0)
     else complete(0) && (complete(below) || early || (0 until below).map(k => complete(k) && lastAt(k)).reduce(_ || _))
-  val v: UInt = RegNext(metaRow(relNext(0)), 0.U).suggestName("outRowV")
-  val width: UInt = RegNext(metaW(relNext(0)), 0.U)
-  private val widthM1: UInt = RegNext(metaWm1(relNext(0)), 0.U)
+  val v: UInt = RegNext(metaNext(metaRow, 0), 0.U).suggestName("outRowV")
+  val width: UInt = RegNext(metaNext(metaW, 0), 0.U)
+  private val widthM1: UInt = RegNext(metaNext(metaWm1, 0), 0.U)
   val isLast: Bool = lastAt(0)
   // the last-column flag and outCol + 1 next cycle (rows are at least 2 wide: column 0 is never the last; widthM1
   // holds the output row's width once that row is ready, so it is the right one whenever the output takes a pixel)
@@ -141,7 +148,7 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
     advancing := true.B
     when(atLastCol) {
       outRowDone := true.B
-      for (k <- -above to below) rel(k) := relNext(k)
+      for (k <- -above to below) { rel(k) := relNext(k); relSucc(k) := wrapInc(relSucc(k)) }
     }
   }
 }
@@ -166,11 +173,16 @@ class RowWindow(p: ElasParams, bits: Int, in: DecoupledIO[PostBeat]) {
   def tap(k: Int): UInt = ent(4 + k).data.asUInt
   /** Set when the centre is taken. */
   val take: Bool = WireDefault(false.B)
-  when(take) {
-    for (i <- 0 until N - 1) ent(i) := ent(i + 1)
-    colReg := Mux(centre.eol, 0.U, u + 1.U)
+  when(take) { colReg := Mux(centre.eol, 0.U, u + 1.U) }
+  // Each entry's next value, chosen by the take among its own word, the next entry's and the input; the entry the
+  // input goes to is decoded from `pending` (a register) for both cases, so the take only selects (it is not the
+  // index of a write that is decoded after it).
+  for (i <- 0 until N) {
+    val inHereTake = in.fire && (if (i >= 3) pending === (i - 3).U else false.B)
+    val inHereKeep = in.fire && (if (i >= 4) pending === (i - 4).U else false.B)
+    val shifted = if (i < N - 1) ent(i + 1) else ent(i)
+    ent(i) := Mux(take, Mux(inHereTake, in.bits, shifted), Mux(inHereKeep, in.bits, ent(i)))
   }
-  when(in.fire) { ent(Mux(take, pending +& 3.U, pending +& 4.U)) := in.bits }
   pending := pending + in.fire.asUInt - take.asUInt
 }
 
@@ -212,7 +224,7 @@ class PostRowGaps(p: ElasParams) extends Module {
   private val gap = math.min(p.ipolGapWidth, p.maxWidth)
   val ring = new RowRing(p, vW, 0, 0, io.in, io.in.bits.data.asUInt)
   private val B = ring.B
-  val runEnd = Seq.fill(B)(SyncReadMem(p.maxWidth, UInt((p.colBits + vW).W)))
+  val runEnd = Seq.fill(B)(Mem(p.maxWidth, UInt((p.colBits + vW).W))) // read-first: no read meets a write (below)
   val firstPos = Reg(Vec(B, UInt(p.colBits.W))); val firstVal = Reg(Vec(B, SInt(vW.W)))
   val lastPos = Reg(Vec(B, UInt(p.colBits.W))); val lastVal = Reg(Vec(B, SInt(vW.W)))
   val anyValid = Reg(Vec(B, Bool()))
@@ -244,7 +256,7 @@ class PostRowGaps(p: ElasParams) extends Module {
   // The run table entry an invalid pixel needs is at the column after the last valid pixel before it. Read one cycle
   // ahead for the pixel after this one as if this one is taken (the address does not wait for the handshake): if this
   // pixel is valid, at u + 1; else at the same column as for this pixel, which is also right while it waits.
-  val entry = VecInit(runEnd.map(_.read(Mux(c >= 0.S, u + 1.U, outPrevPos + 1.U))))(s)
+  val entry = VecInit(runEnd.map(m => RegNext(m.read(Mux(c >= 0.S, u + 1.U, outPrevPos + 1.U)))))(s)
   def x16(d: SInt): SInt = (d << 4).asSInt
   val go = ring.rowReady && adv
   when(go) {
@@ -324,11 +336,13 @@ class PostColumnGaps(p: ElasParams) extends Module {
   // the input's row and column (as the ring counts them)
   val inCol = RegInit(0.U(p.colBits.W)); val inRow = RegInit(0.U(p.rowBits.W))
   // per column, input side: the last valid pixel above (row, value) in this frame
-  val lastMem = SyncReadMem(p.maxWidth, UInt((1 + p.rowBits + 16).W))
+  // read-first (a `Mem` read into a register): the read is at the next column (or 0 after a row's end), the write at
+  // this one, so they never meet (rows are at least 2 wide)
+  val lastMem = Mem(p.maxWidth, UInt((1 + p.rowBits + 16).W))
   val x = io.in.bits.data
   val r = Mux(io.in.bits.sof && inCol === 0.U, 0.U, inRow)
   val u = Mux(io.in.bits.sof, 0.U, inCol)
-  val lw = lastMem.read(Mux(io.in.fire, Mux(io.in.bits.eol, 0.U, u + 1.U), inCol))
+  val lw = RegNext(lastMem.read(Mux(io.in.fire, Mux(io.in.bits.eol, 0.U, u + 1.U), inCol)))
   val lAny = r =/= 0.U && lw(p.rowBits + 16)
   val lRow = lw(p.rowBits + 15, 16)
   val lVal = lw(15, 0).asSInt

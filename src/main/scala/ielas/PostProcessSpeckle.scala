@@ -51,22 +51,23 @@ import chisel3.util._
   *  (W before the pipeline). B works in two steps (B1: P_k[x] is there, K_k[P_k[x]] is read; B2: K_k[x] is written),
   *  C in three (the class, its entry, the map write).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus L + 3 clocks of chain and A's steps; at W + 2 clocks a row that is within L + 2 rows of W
+  * about W nodes), plus 2 L + 3 clocks of chain and A's steps; at W + 2 clocks a row that is within L + 2 rows of W
   * for W >= 3 L + 10, and the 2 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
   * ceil(2 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
-  * Memories: every memory is block RAM (SyncReadMem), each read one cycle ahead at the address its reader holds next
-  * cycle (D's row and column, A's pixel count, the beat each chain stage holds next, B's node) or at the address a
-  * pipeline step forms for the next step. A read sees the writes of its own cycle (the memories are transparent);
-  * a write in the cycle after the read is forwarded by the reader (A2: the previous pixel's first touch, through its
-  * touched flag, which also stands in for that pixel's R write missing from A1's word). The delay line, row above and F map reads never meet a write of the same cycle
-  * (D reads rows A has finished, the row above was written frameW > 1 pixels earlier, C writes maps no beat in the
-  * chain still needs); P is written a cycle after A asks, from registers, and B's read forwards that write and the
-  * one asked for this cycle (A's last pixels write while B starts that row). K (written by B2), R and S (by A2) have
-  * one replica per reader (K: A0, B1, C0; R: AK, C1; S: AK, A1, C1). B, C and D read the per-row metadata from
-  * registers one cycle old (written at least two cycles before a row becomes theirs). Row slots are wrapping
-  * counters, not `seq % n`; D's chain beats carry their map slot one-hot (rotated by one per stage; it selects the
-  * read addresses) and as a number (it selects the read data: a binary multiplexer tree is far smaller than a one-hot
-  * AND-OR in LUTs).
+  * Memories: every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
+  * row and column, A's pixel count, B's node), at the address a pipeline step forms for the next step, or (D's chain)
+  * from a stage register, the beat waiting a clock for its word. A read sees the writes of its own cycle: the row
+  * above is a transparent SyncReadMem; the others are read-first (`Mem` read into a register, so Yosys emulates no
+  * transparency) and either never meet a write of their cycle (the delay line and F maps: D reads rows A has
+  * finished, C writes maps no beat in the chain still needs) or forward it: K, R, S (one replica per reader; K: A0,
+  * B1, C0; R: AK, C1; S: AK, A1, C1) compare the write's slot and entry with the read's, P (written a cycle after A
+  * asks, from registers) forwards that write and the one asked for this cycle (A's last pixels write while B starts
+  * that row). A write in the cycle after the read is forwarded by the reader (A2: the previous pixel's first touch,
+  * through its touched flag, which also stands in for that pixel's R write missing from A1's word). B, C and D read
+  * the per-row metadata from registers one cycle old (written at least two cycles before a row becomes theirs). Row
+  * slots are wrapping counters, not `seq % n`; D's chain beats carry their map slot one-hot (rotated by one per
+  * stage, zero once the beat applies no more maps; it selects the read ports) and as a number (it selects the read
+  * data: a binary multiplexer tree is far smaller than a one-hot AND-OR in LUTs).
   */
 class PostProcessSpeckle(p: ElasParams) extends Module {
   private val L = p.speckleWindowRows
@@ -130,40 +131,75 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // ---- memories ----
   // Delay line (block RAM, 1R1W): written by A, read by D one cycle ahead. A reads the row above from `upRows`, its
   // last 2^(colBits + 1) pixels again (block RAM, 1R1W), so the large memory needs no second read port.
-  val delay = SyncReadMem(ND * W, UInt((vW + idW).W))
+  // (the delay line is read-first, a `Mem` read into a register: D reads rows A has finished, never one A writes)
+  val delay = Mem(ND * W, UInt((vW + idW).W))
   val upRows = SyncReadMem(2 << p.colBits, UInt((vW + idW).W))
   // F maps, one memory per row slot, {closed, size or node}. Chain stage i reads slot (seq + i) mod NF; stages of
   // one row read consecutive slots and only adjacent stages (across a row boundary) can meet on one slot, so two
   // read ports per slot suffice: even stages on port 0, odd stages on port 1.
-  val fMaps = Seq.fill(NF)(SyncReadMem(W, UInt((1 + fW).W)))
+  // A `Mem` read into a register (block RAM, read-first): no read that is used meets a write of its cycle (C writes
+  // a map only once D's beats that apply it are retired or not yet issued), so the transparency of a SyncReadMem
+  // (address compare and bypass multiplexer after the read address) would be dead logic on the chain's path.
+  val fMaps = Seq.fill(NF)(Mem(W, UInt((1 + fW).W)))
   // P: written by A, read by B only, at B's next node (one cycle ahead; block RAM). A's write of a node B reads next
   // cycle (A2's last pixels of the row B has just started) is forwarded.
-  val pMem = SyncReadMem(2 * W, UInt(idW.W))
-  val pWen = WireDefault(false.B); val pWAddr = WireDefault(0.U(16.W)); val pWData = WireDefault(0.U(idW.W))
+  // read-first (`Mem` read into a register): the write of the read's own cycle is forwarded below (hit2) anyway
+  val pMem = Mem(2 * W, UInt(idW.W))
+  val pWen = WireDefault(false.B); val pWSlot = WireDefault(0.U(1.W)); val pWNode = WireDefault(0.U(idW.W))
+  val pWData = WireDefault(0.U(idW.W))
   // the write reaches the memory a cycle later, from registers (A's labelling logic stays off the RAM's address pins)
-  val pwEn = RegNext(pWen, false.B); val pwAddr = RegEnable(pWAddr, pWen); val pwData = RegEnable(pWData, pWen)
-  when(pwEn) { pMem.write(pwAddr, pwData) }
+  val pwEn = RegNext(pWen, false.B); val pwSlot = RegEnable(pWSlot, pWen); val pwNode = RegEnable(pWNode, pWen)
+  val pwData = RegEnable(pWData, pWen)
+  when(pwEn) { pMem.write(addr(pwSlot, pwNode), pwData) }
   /** A table with one writer and several readers: one block-RAM replica per reader (1R1W each), all written alike.
-    * A read is issued a cycle before its data is used and sees every write up to and including its own cycle
-    * (the memories' read-during-write is transparent); later writes are forwarded by the reader. */
-  class Table(name: String, depth: Int, width: Int, readers: Int) {
-    private val mems = Seq.tabulate(readers)(i => SyncReadMem(depth, UInt(width.W)).suggestName(s"${name}_$i"))
+    * A read is issued a cycle before its data is used and sees every write up to and including its own cycle; later
+    * writes are forwarded by the reader. Each replica is read-first (a `Mem` read into a register, Yosys' block RAM
+    * read register) and the write of the read's own cycle is forwarded here, compared by slot and entry: a
+    * transparent SyncReadMem would make Yosys compare the whole addresses, after the slot x W + x adders (and after
+    * the write's decision, which multiplexed the write address), on the read address's path. */
+  class Table(name: String, slots: Int, width: Int, readers: Int) {
+    private val depth = slots * W
+    private val mems = Seq.tabulate(readers)(i => Mem(depth, UInt(width.W)).suggestName(s"${name}_$i"))
+    // the address and data are don't-cares without a write, so they do not wait for the write's decision
     val wen = WireDefault(false.B)
-    val waddr = WireDefault(0.U(log2Ceil(depth).W))
-    val wdata = WireDefault(0.U(width.W))
+    val wslot = Wire(UInt((log2Ceil(slots) max 1).W)); wslot := DontCare
+    val wx = Wire(UInt(idW.W)); wx := DontCare
+    val wdata = Wire(UInt(width.W)); wdata := DontCare
+    private val waddr = addr(wslot, wx)
     when(wen) { mems.foreach(_.write(waddr, wdata)) }
-    def write(a: UInt, d: UInt): Unit = { wen := true.B; waddr := a; wdata := d }
-    def read(reader: Int, a: UInt): UInt = mems(reader).read(a)
+    def write(slot: UInt, x: UInt, d: UInt): Unit = { wen := true.B; wslot := slot; wx := x; wdata := d }
+    def read(reader: Int, slot: UInt, x: UInt): UInt = {
+      val word = Reg(UInt(width.W)); word := mems(reader).read(addr(slot, x))
+      val written = Reg(UInt(width.W)); written := wdata
+      val hit = RegNext(wen && wslot === slot && wx === x, false.B)
+      Mux(hit, written, word)
+    }
   }
   // K: flat classes, 3 rows (B never waits for C to finish reading K_{k-2}); written by B2, read by A0, B1, C0.
-  val kTab = new Table("kMem", 3 * W, idW, 3)
+  val kTab = new Table("kMem", 3, idW, 3)
   // R: class -> row-k node, 2 rows; written by A2, read by AK and C1.
-  val rTab = new Table("rMem", 2 * W, idW, 2)
+  val rTab = new Table("rMem", 2, idW, 2)
   // S: saturating sizes, 3 rows; written by A2, read by AK (S_{k-1}), A1 (S_k) and C1 (S_{k-1}).
-  val sTab = new Table("sMem", 3 * W, sW, 3)
+  val sTab = new Table("sMem", 3, sW, 3)
   val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
-  // one bit of each buffer, then the buffer (not a 2 x maxWidth-bit mux before the bit select)
-  private def rvRead(buf: UInt, idx: UInt): Bool = Mux(buf === 1.U, bitAt(rValid(1), idx), bitAt(rValid(0), idx))
+  /** The same lookup in two steps, for a register between them (a W:1 multiplexer is too deep for one step):
+    * `groups` picks the flag at the index's low `lo` bits in each group of 2^lo classes (at most 2^hiBits groups;
+    * one bit of each buffer, then the buffer), `pick` the group. */
+  private class RvSplit(hiBits: Int) {
+    val lo: Int = idW - math.min(hiBits, idW)
+    val count: Int = (W + (1 << lo) - 1) >> lo
+    def groups(buf: UInt, idx: UInt): UInt = {
+      def part(v: UInt): Seq[UInt] = (0 until W by (1 << lo)).map(g => v(math.min(W, g + (1 << lo)) - 1, g))
+      VecInit(part(rValid(0)).zip(part(rValid(1))).map { case (g0, g1) =>
+        Mux(buf === 1.U, bitAt(g1, idx), bitAt(g0, idx))
+      }).asUInt
+    }
+    def pick(groups: UInt, idx: UInt): Bool =
+      if (count == 1) groups(0) else VecInit(groups.asBools.take(count))(idx(idW - 1, lo))
+  }
+  // C: 8 groups (its pick has time in C2); A: 4 groups (the pick is one LUT in A2's decision)
+  private val rvC = new RvSplit(3)
+  private val rvA = new RvSplit(2)
   /** Bit idx of v as a tree of 4:1 multiplexers (two index bits per LUT level). */
   private def bitAt(v: UInt, idx: UInt): Bool = {
     var level: Seq[Bool] = v.asBools
@@ -205,11 +241,18 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dDone = RegInit(0.U(seqW.W)) // rows retired by D (left the last chain stage)
   /** x - y of two row counters as a small signed register, updated with their increments: the engines' start
     * conditions compare these (a few bits) instead of 16-bit sequence numbers. Engines stay within ND + 2 rows. */
-  private def diff(incX: Bool, incY: Bool): SInt = {
-    val r = RegInit(0.S(9.W))
+  class RowDiff(incX: Bool, incY: Bool) {
+    val r: SInt = RegInit(0.S(9.W))
     r := r + incX.asUInt.zext - incY.asUInt.zext
-    r
+    /** cmp(r, c) as a register, cmp one of >=, <=, === with a constant c: next cycle's r is r + 1, r or r - 1, and
+      * cmp(r + 1, c) = cmp(r, c - 1), so the three compares are made on r alone and the increments only select (the
+      * start conditions then read flip-flops, not a 9-bit compare after the increments). */
+    def is(cmp: (SInt, SInt) => Bool, c: Int): Bool = {
+      val next = Mux(incX === incY, cmp(r, c.S), Mux(incX, cmp(r, (c - 1).S), cmp(r, (c + 1).S)))
+      RegNext(next, cmp(0.S(9.W), c.S))
+    }
   }
+  private def diff(incX: Bool, incY: Bool): RowDiff = new RowDiff(incX, incY)
   val dAB = diff(aIncW, bIncW) // aNext - bNext
   val dCB = diff(cIncW, bIncW) // cNext - bNext
   val dCA = diff(cIncW, aIncW) // cNext - aNext
@@ -217,8 +260,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dCT = diff(cIncW, tIncW) // cNext - tNext
   val dDT = diff(dDoneIncW, tIncW) // dDone - tNext
   val dDC = diff(dDoneIncW, cIncW) // dDone - cNext
-  val dAN = diff(aIncW, dNextIncW) // aNext - dNext
-  val dCN = diff(cIncW, dNextIncW) // cNext - dNext
+  val dAN = diff(aIncW, dNextIncW).r // aNext - dNext
+  val dCN = diff(cIncW, dNextIncW).r // cNext - dNext
 
   // ===== A: labelling, a pipeline T -> A0 -> A1 -> A2 (one pixel per clock) =====
   // T takes the input beat into registers (no logic on its bits) and does the row's start bookkeeping; A0 finds the
@@ -257,26 +300,30 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val rowStart = Bool(); val lastCol = Bool()
     val valid = Bool(); val newRun = Bool(); val node = UInt(idW.W); val connectU = Bool(); val cls = UInt(idW.W)
   }
+  private val clsLoBits = math.min(5, idW)
   class A2Beat extends Bundle {
     val p = new A1Beat
-    val rv = Bool(); val rn = UInt(idW.W) // R_k flag and node of cls as known in A1
+    val rvGroups = UInt(rvA.count.W); val rn = UInt(idW.W) // R_k flag (its first lookup step) and node of cls in A1
     val sPrev = UInt(sW.W) // S_{k-1}[cls]
     val hitPre = Bool() // the pixel then in A2 had the same class
     val neNode = Bool() // rn =/= node
     val eqT = Bool(); val eqN = Bool(); val eqR = Bool() // rn equals the pixel then in A2's top, node, rn
+    // cls decoded in two parts (low clsLoBits bits, the rest), so A2's touched-flag write is an AND of two of these
+    val clsLo = UInt((1 << clsLoBits).W); val clsHi = UInt((1 << (idW - clsLoBits)).W)
   }
   val inA0v = RegInit(false.B); val inA0 = Reg(new A0Beat)
   val inAKv = RegInit(false.B); val inAK = Reg(new AKBeat)
   val inA1v = RegInit(false.B); val inA1 = Reg(new A1Beat)
-  val inA2v = RegInit(false.B); val inA2 = Reg(new A2Beat)
+  // A2's beat with a reset: its flip-flops then never become the tail of a shift register (an SRL read is a LUT level)
+  val inA2v = RegInit(false.B); val inA2 = RegInit(0.U.asTypeOf(new A2Beat))
   /** A2 holds the last pixel of row aNext: B and C may start that row now. */
-  val aLastInA2 = inA2v && inA2.p.lastCol
+  val aLastInA2 = RegNext(inA1v && inA1.lastCol, false.B) // a register of its own (inA2.p.lastCol may become an SRL)
 
   // B (declared here: A0 reads K_{k-1} while B writes it)
   val bx = RegInit(0.U((idW + 1).W)) // B's node; 0 whenever B is idle
   val bxN = WireDefault(bx); bx := bxN
   // row bNext is labelled (aNext >= bNext + 1, or its last pixel is in A2), cNext + 1 >= bNext
-  val bCanStart = !bBusy && (dAB >= 1.S || dAB === 0.S && aLastInA2) && dCB >= -1.S
+  val bCanStart = !bBusy && (dAB.is(_ >= _, 1) || dAB.is(_ === _, 0) && aLastInA2) && dCB.is(_ >= _, -1)
   val bActive = bBusy || bCanStart
   val bComputed = Wire(UInt(idW.W)) // B2's K entry of this cycle
   val b1v = Wire(Bool()) // B1 holds a node of its row (B2 writes it next cycle)
@@ -285,22 +332,30 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // ---- T ----
   // row k = tNext: bNext >= k - 1, cNext + 1 >= k (or C writes its last entry of row k - 2 now), dDone + ND >= k + 1
-  val rowOk = !aBusy && !inA0v && dBT >= -1.S && (dCT >= -1.S || dCT === -2.S && c2Last) && dDT >= (1 - ND).S
+  val rowOk = !aBusy && !inA0v && dBT.is(_ >= _, -1) && (dCT.is(_ >= _, -1) || dCT.is(_ === _, -2) && c2Last) &&
+    dDT.is(_ >= _, 1 - ND)
   // B works on row k - 1 or is past it (the second pixel of a row needs K_{k-1}, see A0)
-  val bOnRow = dBT >= 0.S || dBT === -1.S && bActive
+  val bOnRow = dBT.is(_ >= _, 0) || dBT.is(_ === _, -1) && bActive
   val rowStartNow = !aBusy
   val col = Mux(aBusy, aCol, 0.U)
-  val lastCol = col === frameW - 1.U
+  // col === frameW - 1 and aRow === frameH - 1 as registers, set at the take a cycle before (compares with frameW - 2
+  // and frameH - 2), so the take only enables: rows are at least 2 wide, so a row's first column never ends it
+  val frameWm2 = Reg(UInt(p.colBits.W)); val frameHm2 = Reg(UInt(p.rowBits.W))
+  val aColIsLast = RegInit(false.B); val aRowIsLast = RegInit(false.B)
+  val lastCol = aBusy && aColIsLast
   // upRows is a ring of A's pixels by pixel count; the up pixel was written (by A0) frameW > 1 pixels before this
   // one, so never in the cycle of this read. Read at the take, the word is there when the pixel is in A0.
   val upPos = RegInit(0.U((p.colBits + 1).W)) // pixels taken, mod 2^(colBits + 1) >= 2 maxWidth
   val upWord = upRows.read(upPos - frameW)
-  io.in.ready := inFrame && Mux(aBusy, aCol =/= 1.U || bOnRow, rowOk)
+  val aColIsOne = RegInit(false.B) // aCol === 1 (T waits for the row's second pixel), as a register
+  io.in.ready := inFrame && Mux(aBusy, !aColIsOne || bOnRow, rowOk)
   val take = io.in.fire
+  when(take) { aColIsOne := rowStartNow }
 
   // idle between frames: a beat starts a frame (size sampled now, the beat is taken from the next cycle on)
   when(!inFrame && !needVirtual && !aBusy && io.in.valid) {
     inFrame := true.B; frameW := io.frameWidth; frameH := io.frameHeight; aRow := 0.U
+    frameWm2 := io.frameWidth - 2.U; frameHm2 := io.frameHeight - 2.U; aRowIsLast := io.frameHeight === 1.U
   }
   inA0v := take
   inA0.sl.d := aD.cur; inA0.sl.r := a2.cur; inA0.sl.s := a3.cur; inA0.sl.sPrev := a3.prev
@@ -311,10 +366,12 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     upPos := upPos + 1.U
     leftVal := io.in.bits.data
     aCol := col + 1.U
+    aColIsLast := Mux(aBusy, aCol === frameWm2, frameWm2 === 0.U)
     when(lastCol) {
       aBusy := false.B
       aRow := aRow + 1.U
-      when(aRow === frameH - 1.U) { inFrame := false.B; needVirtual := true.B }
+      aRowIsLast := aRow === frameHm2
+      when(aRowIsLast) { inFrame := false.B; needVirtual := true.B }
     }
   }
   // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row). It starts
@@ -345,7 +402,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val upId = upWord(idW - 1, 0)
   val connectU = a0Valid && inA0.hasUp && upVal >= 0.S && similar(inA0.v, upVal)
   // K_{k-1}[upId] is read now and used in AK (below)
-  val kWordA = kTab.read(0, addr(inA0.sl.sPrev, upId))
+  val kWordA = kTab.read(0, inA0.sl.sPrev, upId)
   // the row's start bookkeeping (a cycle after T; A1 reads R_k's flags a cycle later)
   when(inA0v && inA0.rowStart) {
     val d = inA0.sl.d
@@ -376,8 +433,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // the compares are made a cycle earlier (in A0, against B1: B2 holds next cycle what B1 holds now)
   val cls = Mux(RegNext(upId === 0.U), 0.U, Mux(RegNext(b1v && b3.cur === inA0.sl.sPrev &&
     bx === upId, false.B), bComputed, kWordA))
-  val rWordA = rTab.read(0, addr(inAK.sl.r, cls))
-  val sPrevWord = sTab.read(0, addr(inAK.sl.sPrev, cls))
+  val rWordA = rTab.read(0, inAK.sl.r, cls)
+  val sPrevWord = sTab.read(0, inAK.sl.sPrev, cls)
   inA1v := inAKv
   inA1.sl := inAK.sl
   inA1.rowStart := inAK.rowStart; inA1.lastCol := inAK.lastCol; inA1.valid := inAK.valid; inA1.newRun := inAK.newRun
@@ -394,16 +451,18 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // and finTop come no later than this pixel's AK read).
   val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
   val rnRaw = rWordA
-  val mWord = sTab.read(1, addr(inA1.sl.s, rnRaw))
+  val mWord = sTab.read(1, inA1.sl.s, rnRaw)
   inA2v := inA1v
   inA2.p := inA1
-  inA2.rv := rvRead(inA1.sl.r, inA1.cls)
+  inA2.rvGroups := rvA.groups(inA1.sl.r, inA1.cls)
   inA2.rn := rnRaw
   inA2.sPrev := finS(inA1.sl.sPrev, inA1.cls, sPrevWord)
   // the next top is one of the current top, the node of the pixel in A2 or its rn: compare rn with each now
   inA2.eqT := rnRaw === top; inA2.eqN := rnRaw === inA2.p.node; inA2.eqR := rnRaw === inA2.rn
   inA2.hitPre := inA2v && inA2.p.cls === inA1.cls
   inA2.neNode := rnRaw =/= inA1.node
+  inA2.clsLo := UIntToOH(inA1.cls(clsLoBits - 1, 0), 1 << clsLoBits)
+  inA2.clsHi := UIntToOH(inA1.cls >> clsLoBits, 1 << (idW - clsLoBits))
 
   // ---- A2: label state ----
   // hitR: the previous pixel touched this class first (its R write is not in A1's read): then rn is that pixel's
@@ -413,7 +472,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val aP = q.sl.r; val aS = q.sl.s
   val topAnyBase = !q.rowStart && topAny
   val hitR = inA2.hitPre && lastTouchNew
-  val rv = inA2.rv || hitR
+  val rv = rvA.pick(inA2.rvGroups, q.cls) || hitR
   // where the top came from in the previous cycle (T: kept, N: the pushed node, R: that pixel's rn)
   val topFrom = RegInit(0.U(2.W))
   val rnIsTop = hitR || Mux1H(Seq(topFrom === 0.U, topFrom === 1.U, topFrom === 2.U), Seq(inA2.eqT, inA2.eqN, inA2.eqR))
@@ -437,10 +496,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
   lastTouchNew := inA2v && touchNew
   when(inA2v) {
-    when(q.newRun && topAnyBase) { sTab.write(addr(aS, top), topSize) } // the old top stops being the top
-    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U && touchNew) { r := r | UIntToOH(q.cls, W) }
-    when(touchNew) { rTab.write(addr(aP, q.cls), pushTop) }
-    when(q.newRun || touchOld) { pWen := true.B; pWAddr := addr(aP, pushTop); pWData := Mux(touchOld, rn, pushTop) }
+    when(q.newRun && topAnyBase) { sTab.write(aS, top, topSize) } // the old top stops being the top
+    val touchMask = VecInit((0 until W).map(j => inA2.clsLo(j & ((1 << clsLoBits) - 1)) && inA2.clsHi(j >> clsLoBits))).asUInt
+    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U && touchNew) { r := r | touchMask }
+    when(touchNew) { rTab.write(aP, q.cls, pushTop) }
+    when(q.newRun || touchOld) { pWen := true.B; pWSlot := aP; pWNode := pushTop; pWData := Mux(touchOld, rn, pushTop) }
     top := newTop
     topSize := newSize
     topAny := topAnyBase || q.valid
@@ -460,22 +520,25 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val bPx = {
     // the node B1 holds next cycle: bx + 1 while busy (after a row's last node, nothing), node 1 of its slot while
     // idle (the node after the one a start does), so the address does not wait for the start decision
-    val next = addr(b2.cur, Mux(bBusy, bx(idW - 1, 0) + 1.U, 1.U))
-    // forwarded: the request of this cycle and the one being written (neither is in the word read)
-    val hit1 = RegNext(pWen && pWAddr === next, false.B)
-    val hit2 = RegNext(pwEn && pwAddr === next, false.B)
-    Mux(hit1, pwData, Mux(hit2, RegNext(pwData), pMem.read(next)))
+    val nextNode = Mux(bBusy, bx(idW - 1, 0) + 1.U, 1.U)
+    val next = addr(b2.cur, nextNode)
+    // forwarded: the request of this cycle and the one being written (neither is in the word read). The request's
+    // address is compared by parts (its slot and either candidate node), so A2's decision only selects.
+    val pushIsNext = Mux(q.newRun, q.node === nextNode, top === nextNode)
+    val hit1 = RegNext(pWen && aP === b2.cur && pushIsNext, false.B)
+    val hit2 = RegNext(pwEn && pwSlot === b2.cur && pwNode === nextNode, false.B)
+    Mux(hit1, pwData, Mux(hit2, RegNext(pwData), RegNext(pMem.read(next))))
   }
   // B1 (node bx): P_k[bx] is here; K_k[P_k[bx]] is read. B2 (node b2x, a cycle later) computes and writes K_k[b2x];
   // P_k[x] < x, so the read sees B2's write of node x - 1 made in the same cycle.
-  val kWordB = kTab.read(1, addr(bKslot, bPx))
+  val kWordB = kTab.read(1, bKslot, bPx)
   val b2Px = RegNext(bPx)
   b1v := bActive && bx < bN
   b2v := b1v
   b2x := bx(idW - 1, 0); b2Slot := bKslot
   // x = 0 and P_k[x] = x decided in B1 (registers into B2's multiplexer)
   bComputed := Mux(RegNext(bx === 0.U), 0.U, Mux(RegNext(bPx === bx(idW - 1, 0)), b2Px, kWordB))
-  when(b2v) { kTab.write(addr(b2Slot, b2x), bComputed) }
+  when(b2v) { kTab.write(b2Slot, b2x, bComputed) }
   when(bActive) {
     when(bx + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
       .otherwise { bBusy := true.B; bxN := bx + 1.U }
@@ -492,28 +555,30 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val c1v = RegInit(false.B); val c1Last = RegInit(false.B)
   val c1x = Reg(UInt(idW.W))
   // row cNext is labelled (aNext >= cNext + 1, or its last pixel is in A2), bNext >= cNext, dDone + NF >= cNext + 1
-  val cCanStart = !cBusy && !c1Last && !c2Last && (dCA <= -1.S || dCA === 0.S && aLastInA2) && dCB <= 0.S &&
-    dDC >= (1 - NF).S
+  val cCanStart = !cBusy && !c1Last && !c2Last && (dCA.is(_ <= _, -1) || dCA.is(_ === _, 0) && aLastInA2) &&
+    dCB.is(_ <= _, 0) && dDC.is(_ >= _, 1 - NF)
   val cActive = cBusy || cCanStart
   val cxEff = Mux(cBusy, cx, 0.U)
   c1v := cActive && cxEff < cPrevN
   c1Last := cActive && cxEff + 1.U >= cPrevN
   c1x := cxEff(idW - 1, 0)
-  val c1Class = kTab.read(2, addr(c3.prev, cxEff(idW - 1, 0)))
+  val c1Class = kTab.read(2, c3.prev, cxEff(idW - 1, 0))
   when(cActive) {
     when(cxEff + 1.U >= cPrevN) { cBusy := false.B }.otherwise { cBusy := true.B; cx := cxEff + 1.U }
   }
   val cRbuf = c2.cur
   val cSbuf = c3.prev
   // C1
-  val rWordC = rTab.read(1, addr(cRbuf, c1Class))
-  val sWordC = sTab.read(2, addr(cSbuf, c1Class))
+  val rWordC = rTab.read(1, cRbuf, c1Class)
+  val sWordC = sTab.read(2, cSbuf, c1Class)
   val c2v = RegNext(c1v, false.B)
   c2Last := c1Last
   val c2x = RegNext(c1x)
-  val c2Open = RegNext(rvRead(cRbuf, c1Class))
+  // the touched flag in two steps: the group flags now (from the class read), the group in C2
+  val c2OpenGroups = Reg(UInt(rvC.count.W)); c2OpenGroups := rvC.groups(cRbuf, c1Class); val c2Class = RegNext(c1Class)
   val c2Fin = RegNext(finAny(cSbuf) && finTop(cSbuf) === c1Class)
   // C2
+  val c2Open = rvC.pick(c2OpenGroups, c2Class)
   val cEntry = Mux(c2Open, Cat(0.U(1.W), rWordC.pad(fW)), Cat(1.U(1.W), Mux(c2Fin, finSize(cSbuf), sWordC).pad(fW)))
   when(c2v) {
     for ((m, b) <- fMaps.zipWithIndex) when(cF.cur === b.U) { m.write(c2x, cEntry) }
@@ -522,7 +587,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // ===== D: output chain =====
   class Beat extends Bundle {
-    val tgt = UInt(NF.W) // one-hot: the map slot of the next lookup, (row sequence + stage + 1) mod NF
+    // one-hot: the map slot of the next lookup, (row sequence + stage + 1) mod NF; zero once the beat applies no
+    // more maps (invalid, closed or past its chain length, which is final), so it alone selects a map's read port
+    val tgt = UInt(NF.W)
     val slot = UInt(log2Ceil(NF).W) // the same slot as a number (the lookup's multiplexer: a binary tree is smaller)
     val value = SInt(vW.W)
     val closed = Bool()
@@ -548,42 +615,51 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dColN = WireDefault(dCol); dCol := dColN
   val dD = new Slot(ND); val dF = new Slot(NF)
   val dSlot = dD.cur
-  val dVirt = dD.regRead(metaVirtual); val dFirst = dD.regRead(metaFirst); val dLast = dD.regRead(metaLast)
-  val dLen = dD.regRead(metaLen); val dWd = dD.regRead(metaW); val dWm1 = dD.regRead(metaWm1)
+  // (regRead2: the row change selects after the registers, so the issue does not drive a slot multiplexer)
+  val dVirt = dD.regRead2(metaVirtual); val dFirst = dD.regRead2(metaFirst); val dLast = dD.regRead2(metaLast)
+  val dLen = dD.regRead2(metaLen); val dWd = dD.regRead2(metaW); val dWm1 = dD.regRead2(metaWm1)
   // aNext >= dNext + 1, cNext >= dNext + n + 1: a register formed a cycle early, so the issue (and the chain's map
   // read addresses after it) waits for no counter compare. Exact for D's own row change; A's and C's progress of
   // this cycle is seen a cycle late, which only delays a row's start. At a row end it takes the next row's test,
   // made a cycle earlier still (false in the cycle after a row change, when that test was of the row now current).
-  val dRowEnd = dVirt || dCol === dWm1
+  // dRowEnd = dVirt || dCol === dWm1, as a register formed a cycle ahead (the issue's row change and the read
+  // address wait for no column compare). Rows are at least 2 wide, so column 0 ends only the virtual row; a slot's
+  // meta changes only while D waits at column 0 of it (A0 or the virtual row's start write it before D may issue).
+  val dRowEnd = RegInit(false.B)
+  val dColP1 = RegInit(1.U(p.colBits.W)) // dCol + 1
+  val dCNm1 = RegInit(-1.S(9.W)) // dCN - 1, kept as a register (the test below then has no adder after the slot mux)
+  dCNm1 := dCNm1 + cIncW.asUInt.zext - dNextIncW.asUInt.zext
   val dReadyNextRow = RegNext(!dNextIncW && dAN >= 2.S &&
-    (metaVirtual(dD.succ) || dCN > (metaLen(dD.succ) +& 1.U).zext), false.B)
+    (metaVirtual(dD.succ) || dCNm1 > metaLen(dD.succ).zext), false.B)
   val dReady = RegInit(false.B)
   val issue = dReady && advance
   dReady := Mux(issue && dRowEnd, dReadyNextRow, dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext))
   // read one cycle ahead, at the row and column D holds next cycle: both candidates come from registers and the
   // issue decision only picks one (it stays off the slot x W + column adder)
   val dAddrNow = addr(dD.cur, dCol)
-  val dAddrOn = Mux(dVirt || dCol === dWm1, addr(dD.succ, 0.U), dAddrNow + 1.U)
-  val word = delay.read(Mux(issue, dAddrOn, dAddrNow))
+  val dAddrOn = Mux(dRowEnd, addr(dD.succ, 0.U), dAddrNow + 1.U)
+  val word = RegNext(delay.read(Mux(issue, dAddrOn, dAddrNow)))
   val s0 = Wire(Valid(new Beat))
   s0.valid := issue
-  s0.bits.tgt := UIntToOH(dF.succ, NF)
+  s0.bits.tgt := Mux(issue && s0.bits.value >= 0.S && dLen >= 1.U, UIntToOH(dF.succ, NF), 0.U)
   s0.bits.slot := dF.succ
   s0.bits.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
   s0.bits.closed := false.B
   s0.bits.ptr := word(idW - 1, 0)
   s0.bits.n := dLen
   s0.bits.sof := !dVirt && dFirst && dCol === 0.U
-  s0.bits.eol := !dVirt && dCol === dWm1
-  s0.bits.eof := !dVirt && dCol === dWm1 && dLast
+  s0.bits.eol := !dVirt && dRowEnd
+  s0.bits.eof := !dVirt && dRowEnd && dLast
   s0.bits.lastRow := dLast
   s0.bits.cols := dWd
   s0.bits.virt := dVirt
   when(issue) {
-    when(dRowEnd) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dCol + 1.U }
+    when(dRowEnd) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dColP1 }
   }
-  // stage i (1..L) applies F_{seq + i} when i <= n. The maps are read one cycle ahead: each port's address comes
-  // from the beats the stages hold next cycle (stagesNext), so a stage's lookup reads the data of its own beat.
+  when(issue) { dColP1 := Mux(dRowEnd, 1.U, dColP1 + 1.U) }
+  // (the issue selects last: its three candidates come from registers)
+  dRowEnd := Mux(issue, Mux(dRowEnd, metaVirtual(dD.succ), dColP1 === dWm1), Mux(dCol === 0.U, metaVirtual(dD.cur), dRowEnd))
+  // stage i (1..L) applies F_{seq + i} when i <= n (the map read is described below).
   private def target(b: Beat, k: Int): Bool = b.tgt(k)
   private def applies(i: Int, b: Beat): Bool = b.value >= 0.S && !b.closed && i.U <= b.n
   private val portData: Seq[Seq[UInt]] = Seq.fill(NF)(Seq.fill(2)(Wire(UInt((1 + fW).W))))
@@ -593,26 +669,33 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val apply = applies(i, b)
     val e = VecInit(portData.map(_(i % 2)))(b.slot)
     when(apply) { r.closed := e(fW); r.ptr := e(fW - 1, 0) }
-    r.tgt := (if (NF > 1) Cat(b.tgt(NF - 2, 0), b.tgt(NF - 1)) else b.tgt) // the next stage's map: one slot on
+    val nextApplies = b.value >= 0.S && !r.closed && (i + 1).U <= b.n
+    val rotated = if (NF > 1) Cat(b.tgt(NF - 2, 0), b.tgt(NF - 1)) else b.tgt // the next stage's map: one slot on
+    r.tgt := Mux(nextApplies, rotated, 0.U)
     r.slot := Mux(b.slot === (NF - 1).U, 0.U, b.slot + 1.U)
     r
   }
-  val stagesNext: Seq[Valid[Beat]] = (0 to L).map { i =>
-    val moved = if (i == 0) s0 else {
-      val x = Wire(Valid(new Beat))
-      x.valid := stages(i - 1).valid
-      x.bits := lookup(i, stages(i - 1).bits)
-      x
+  // Each lookup takes two clocks, so that no map read address depends on a map read: the read is issued from
+  // stage i - 1's register, the beat waits in waits(i - 1) while the block RAM reads (its read register is enabled by
+  // `advance`, so it holds the beat's word while the chain stalls), and the lookup forms stage i. The readers of a
+  // port are then every other beat of the stream: two of one port and one map (rows r and r + d at stages d apart,
+  // d even) have 2d - 1 beats between them, holding rows r + 1 .. r + d - 1, so they never meet for frames at least
+  // 4 wide (a frame's virtual row is one beat, but the last row before it applies no map beyond stage 1).
+  val waits = Seq.fill(L)(RegInit(0.U.asTypeOf(Valid(new Beat))))
+  when(advance) {
+    stages(0) := s0
+    for (i <- 1 to L) {
+      waits(i - 1) := stages(i - 1)
+      stages(i).valid := waits(i - 1).valid
+      stages(i).bits := lookup(i, waits(i - 1).bits)
+      when(!waits(i - 1).valid) { stages(i).bits.tgt := 0.U }
     }
-    val n = Mux(advance, moved, stages(i))
-    stages(i) := n
-    n
   }
   for ((m, b) <- fMaps.zipWithIndex; q <- 0 until 2) {
     val users = (1 to L).filter(_ % 2 == q)
-    val sel = users.map(i => stagesNext(i - 1).valid && applies(i, stagesNext(i - 1).bits) && target(stagesNext(i - 1).bits, b))
-    val address = if (users.isEmpty) 0.U else PriorityMux(sel :+ true.B, users.map(i => stagesNext(i - 1).bits.ptr(idW - 1, 0)) :+ 0.U)
-    portData(b)(q) := (if (users.isEmpty) 0.U else m.read(address))
+    val sel = users.map(i => target(stages(i - 1).bits, b)) // (zero unless the beat is valid and applies F here)
+    val address = if (users.isEmpty) 0.U else PriorityMux(sel :+ true.B, users.map(i => stages(i - 1).bits.ptr(idW - 1, 0)) :+ 0.U)
+    portData(b)(q) := (if (users.isEmpty) 0.U else RegEnable(m.read(address), advance))
   }
   when(advance) {
     val last = stages(L)
@@ -644,17 +727,18 @@ object PostProcessSpeckle {
     val (w, idW, sW) = (p.maxWidth, idBits(p), sizeBits(p))
     Seq(
       MemoryUse("Speckle", "delay", delayRows(p) * w, p.signedDispBits + idW,
-        s"(L + 4) rows x maxWidth, value + node id; SyncReadMem 1R1W (block RAM), read by D"),
+        s"(L + 4) rows x maxWidth, value + node id; read-first Mem 1R1W (block RAM), read by D"),
       MemoryUse("Speckle", "upRows", 2 << p.colBits, p.signedDispBits + idW,
         "A's last 2^(colBits + 1) >= 2 maxWidth pixels (the row above); SyncReadMem 1R1W (block RAM)"),
       MemoryUse("Speckle", "fmaps", mapRows(p) * w, 1 + math.max(idW, sW),
-        "(L + 2) rows x maxWidth forward maps; one SyncReadMem per row, 2 read ports (block RAM)"),
-      MemoryUse("Speckle", "P", 2 * w, idW, "merge parents (2 rows); SyncReadMem 1R1W (block RAM), read by B"),
+        "(L + 2) rows x maxWidth forward maps; one read-first Mem per row, 2 read ports (block RAM)"),
+      MemoryUse("Speckle", "P", 2 * w, idW, "merge parents (2 rows); read-first Mem 1R1W (block RAM), read by B"),
       MemoryUse("Speckle", "K", 3 * 3 * w, idW,
-        "flat classes, 3 rows; one SyncReadMem 1R1W (block RAM) per reader (A0, B1, C0)"),
-      MemoryUse("Speckle", "R", 2 * 2 * w, idW, "class -> node, 2 rows; one SyncReadMem 1R1W per reader (AK, C1)"),
+        "flat classes, 3 rows; one read-first Mem 1R1W (block RAM, write forwarded) per reader (A0, B1, C0)"),
+      MemoryUse("Speckle", "R", 2 * 2 * w, idW,
+        "class -> node, 2 rows; one read-first Mem 1R1W (block RAM, write forwarded) per reader (AK, C1)"),
       MemoryUse("Speckle", "S", 3 * 3 * w, sW,
-        "saturating segment sizes, 3 rows; one SyncReadMem 1R1W per reader (AK, A1, C1)"),
+        "saturating segment sizes, 3 rows; one read-first Mem 1R1W (block RAM, write forwarded) per reader (AK, A1, C1)"),
       MemoryUse("Speckle", "Rvalid", 2, w, "touched-class flags (registers)"))
   }
 }
