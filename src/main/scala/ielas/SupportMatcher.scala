@@ -240,8 +240,11 @@ class SupportMatcher(p: ElasParams) extends Module {
   val maxC1 = RegInit(0.U(colW.W))
   // One read per bank and cycle. A reference read fetches the L consecutive columns from c0 = u - r on (banks below
   // c0 mod L read the next word), so u - r and u + r (2r < L) arrive together; a sweep reads the aligned block j.
+  val prefetch = RegInit(false.B) // the next node's references are still to be read in this wait
   val refIssue = WireDefault(false.B) // a left reference read is issued this cycle (else the sweep reads block j)
-  val refC0Now = WireDefault(0.U(colW.W)) // ... its first column
+  // ... its first column: uNext - r in the wait's first cycle (prefetch is set only then), else the node's u - r
+  // (sNode); a single register selects, so the state decode stays off the address
+  val refC0Now = Mux(prefetch, uNextC0, walkU - r.U).pad(colW)
   val readC0 = RegInit(0.U(colW.W)) // c0 of the reference read issued last cycle
   val refRead = RegInit(false.B) //  the data of this cycle: the current sweep's references
   val nextRead = RegInit(false.B) // ... the next node's left references (read while a left result is computed)
@@ -249,7 +252,6 @@ class SupportMatcher(p: ElasParams) extends Module {
   nextRead := false.B
   def readLeftReference(c0: UInt): Unit = {
     refIssue := true.B
-    refC0Now := c0
     readC0 := c0
   }
   /** The addresses of a read of word `word` (banks >= `split` of a reference read) and word + 1 (banks below it):
@@ -410,7 +412,6 @@ class SupportMatcher(p: ElasParams) extends Module {
   val pendOk = Reg(Bool())
   val curLeft = Reg(new Best) //   the current node's left result and texture bit
   val curTexL = Reg(Bool())
-  val prefetch = RegInit(false.B) // the next node's references are still to be read in this wait
   val prefetched = RegInit(false.B) // they are read, and the next node is searched
 
   // ---- output register ----
