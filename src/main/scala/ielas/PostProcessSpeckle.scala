@@ -539,8 +539,14 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // x = 0 and P_k[x] = x decided in B1 (registers into B2's multiplexer)
   bComputed := Mux(RegNext(bx === 0.U), 0.U, Mux(RegNext(bPx === bx(idW - 1, 0)), b2Px, kWordB))
   when(b2v) { kTab.write(b2Slot, b2x, bComputed) }
+  // bx + 1 >= bN (B1 holds its row's last node) without a compare after bN's multiplexer: a row's first node (bx = 0)
+  // is its last when bN <= 1, a flag per slot read like bN; a later node's was compared a cycle ahead (bN stays while
+  // B is on a row, bx steps by one), so the row's end only selects between two registers
+  val bNAtMostOne = bD.regRead2(VecInit(metaN.map(_ <= 1.U)))
+  val bLastAhead = RegNext(bN <= bx +& 2.U, false.B) // for the next node, if B goes on
+  val bLast = Mux(bBusy, bLastAhead, bNAtMostOne)
   when(bActive) {
-    when(bx + 1.U >= bN) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
+    when(bLast) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
       .otherwise { bBusy := true.B; bxN := bx + 1.U }
   }
 

@@ -250,9 +250,9 @@ class SupportMatcher(p: ElasParams) extends Module {
   val nextRead = RegInit(false.B) // ... the next node's left references (read while a left result is computed)
   refRead := false.B
   nextRead := false.B
-  def readLeftReference(c0: UInt): Unit = {
+  def readLeftReference(): Unit = {
     refIssue := true.B
-    readC0 := c0
+    readC0 := refC0Now
   }
   /** The addresses of a read of word `word` (banks >= `split` of a reference read) and word + 1 (banks below it):
     * two row addresses per read, each bank picks one.
@@ -492,7 +492,7 @@ class SupportMatcher(p: ElasParams) extends Module {
       }
     }
     is(sNode) {
-      readLeftReference(walkU - r.U) // the node's references, used if it is searched (keeps the test off the address)
+      readLeftReference() // the node's references (u - r), used if it is searched (keeps the test off the address)
       when(!searched(walkU)) {
         // emitted here, after the previous node's decision
         when(rowReady && output.free && !pendBusy) {
@@ -531,7 +531,7 @@ class SupportMatcher(p: ElasParams) extends Module {
     is(sWait) { // the left result is 5 cycles behind its last block; the next node's references are read meanwhile
       when(prefetch) {
         prefetch := false.B
-        readLeftReference(uNextC0) // a register: the reference address multiplexer follows no subtract
+        readLeftReference() // at uNext - r, a register: the reference address multiplexer follows no subtract
         when(!nodeEol && searched(uNext)) {
           nextRead := true.B
           prefetched := true.B
