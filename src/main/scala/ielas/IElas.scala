@@ -42,8 +42,8 @@ class IElas(p: ElasParams) extends Module {
   io.frameAborted := pipeline.aborted.fire && pipeline.aborted.bits
 
   val gate = Module(new OutputGate)
-  gate.io.in <> pipeline.post
-  gate.io.aborted <> Queue(pipeline.aborted, IElas.framesInFlight(p))
+  gate.io.in <> RegisterSlice(pipeline.post)
+  gate.io.aborted <> RegisterSlice(Queue(pipeline.aborted, IElas.framesInFlight(p)))
   io.out <> gate.io.out
 }
 
@@ -106,7 +106,7 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
 
   private val latePath = last.index >= Stage.Dense.index
   private val pixelFork = Module(new StreamFork(new PixelPair, if (latePath) 2 else 1))
-  pixelFork.io.in <> guardOut
+  pixelFork.io.in <> RegisterSlice(guardOut) // every stage starts a frame after its size is recorded
 
   // ---- early path ----
   val earlyDesc = Module(new Descriptor(p))
@@ -116,7 +116,7 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
 
   val support: DecoupledIO[Framed[SInt]] = if (!needs(Stage.Support)) null else {
     val m = Module(new SupportMatcher(p))
-    m.io.in <> earlyDesc.io.out
+    m.io.in <> RegisterSlice(earlyDesc.io.out)
     sized(m.io.in.bits.sof, m.io.in.fire, m.io.frameWidth, m.io.frameHeight)
     m.io.out
   }
@@ -138,13 +138,14 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
   }
   val grid: DecoupledIO[Framed[GridCellPair]] = if (!needs(Stage.Grid)) null else {
     val m = Module(new GridVector(p))
-    m.io.in <> filterFork.last
+    m.io.in <> RegisterSlice(filterFork.last)
     sized(m.io.in.bits.sof, m.io.in.fire, m.io.frameWidth, m.io.frameHeight)
     m.io.out
   }
   val planes: DecoupledIO[Framed[PlaneCell]] = if (!needs(Stage.Planes)) null else {
     val m = Module(new Planes(p))
-    m.io.in <> (if (latePath) Queue(interp, IElas.latticeQueueEntries(p), useSyncReadMem = true) else interp)
+    m.io.in <> RegisterSlice(if (latePath) Queue(RegisterSlice(interp), IElas.latticeQueueEntries(p), useSyncReadMem = true)
+      else interp)
     sized(m.io.in.bits.sof, m.io.in.fire, m.io.frameWidth, m.io.frameHeight)
     m.io.out
   }
@@ -152,12 +153,12 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
   // ---- late path ----
   val dense: DecoupledIO[Framed[DisparityPair]] = if (!latePath) null else {
     val lateDesc = Module(new Descriptor(p))
-    lateDesc.io.in <> Queue(pixelFork.io.out(1), IElas.bandEntries(p), useSyncReadMem = true)
+    lateDesc.io.in <> RegisterSlice(Queue(pixelFork.io.out(1), IElas.bandEntries(p), useSyncReadMem = true))
     sized(lateDesc.io.in.bits.sof, lateDesc.io.in.fire, lateDesc.io.frameWidth, lateDesc.io.frameHeight)
     val m = Module(new DenseMatcher(p))
-    m.io.desc <> lateDesc.io.out
+    m.io.desc <> RegisterSlice(lateDesc.io.out)
     m.io.planes <> planes
-    m.io.grid <> Queue(grid, IElas.gridQueueEntries(p), useSyncReadMem = true)
+    m.io.grid <> RegisterSlice(Queue(RegisterSlice(grid), IElas.gridQueueEntries(p), useSyncReadMem = true))
     sized(m.io.desc.bits.sof, m.io.desc.fire, m.io.frameWidth, m.io.frameHeight)
     m.io.out
   }
@@ -273,11 +274,17 @@ class FrameSizeTable(p: ElasParams, consumers: Int, depth: Int) extends Module {
     written := written + 1.U
   }
   for (k <- 0 until consumers) {
-    // A stage right behind the guard starts its frame in the cycle the size is recorded: forward it.
-    io.size(k) := Mux(io.record.valid && read(k) === written, io.record.bits, table(read(k)(ptrBits - 2, 0)))
+    // Registered, so no consumer's logic follows the table's multiplexer or the guard's record strobe: a clock old,
+    // with the record of that clock forwarded. A consumer samples its size at its start of frame, which comes at
+    // least a clock (the top's register slice) after the guard recorded it, and read(k) then moves on to the next
+    // frame, which that consumer starts a whole frame later.
+    io.size(k) := RegNext(Mux(io.record.valid && read(k) === written, io.record.bits, table(read(k)(ptrBits - 2, 0))))
     when(io.started(k)) { read(k) := read(k) + 1.U }
   }
-  io.full := written - read(consumers - 1) === depth.U
+  // full as a register, from the counters' next values (the guard's handshake waits on a flip-flop)
+  val full = RegInit(false.B)
+  full := (written + io.record.valid.asUInt) - (read(consumers - 1) + io.started(consumers - 1).asUInt) === depth.U
+  io.full := full
 }
 
 /** Ends an aborted frame's output after the output line in progress (docs/interfaces.md §4): the rest of that frame's

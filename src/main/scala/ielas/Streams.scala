@@ -90,6 +90,41 @@ class OutputRegister[T <: Data](out: DecoupledIO[T]) {
   out.bits := bits
 }
 
+/** A stream boundary with registered outputs and a registered ready: `out.valid`, `out.bits` and `in.ready` are
+  * flip-flops, so neither a consumer's ready logic nor a producer's valid logic reaches through it (the top puts one
+  * between stages, so a register-to-register path stays inside one stage). One beat per clock, one clock of latency;
+  * a second register holds the beat taken in the cycle the output stalls.
+  */
+class RegisterSlice[T <: Data](gen: T) extends Module {
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(gen))
+    val out = Decoupled(gen)
+  })
+  val outValid = RegInit(false.B)
+  val outBits = Reg(gen)
+  val heldValid = RegInit(false.B) // a beat taken while the output stalled
+  val heldBits = Reg(gen)
+  io.in.ready := !heldValid
+  io.out.valid := outValid
+  io.out.bits := outBits
+  when(!outValid || io.out.ready) {
+    outValid := heldValid || io.in.valid
+    outBits := Mux(heldValid, heldBits, io.in.bits)
+    heldValid := false.B
+  }.elsewhen(io.in.valid && !heldValid) {
+    heldValid := true.B
+    heldBits := io.in.bits
+  }
+}
+
+object RegisterSlice {
+  def apply[T <: Data](in: DecoupledIO[T]): DecoupledIO[T] = {
+    val m = Module(new RegisterSlice(chiselTypeOf(in.bits)))
+    m.io.in <> in
+    m.io.out
+  }
+}
+
 /** Hands every beat of `in` to all `n` outputs. Each output may take it in a different cycle; the beat leaves `in`
   * once every output has taken it, so a stalled consumer holds back only the beats it has not yet seen.
   */
