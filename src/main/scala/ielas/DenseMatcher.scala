@@ -872,12 +872,12 @@ class DenseMatcher(p: ElasParams) extends Module {
       firstOf(firstMin(l), firstMin(r))
     }
   // Registered levels of the tree: contiguous blocks of 4 lanes keep the candidate order, so the first minimum of
-  // the blocks' first minima is the first minimum of all. The last level leaves at most 2 values (one more compare
-  // with the earlier groups' minimum when groups > 1) or 4 (groups = 1).
+  // the blocks' first minima is the first minimum of all. The last level leaves at most 4 values (groups = 1) or
+  // one (groups > 1: its compare with the earlier groups' minimum closes the loop through bestSoFar on its own).
   var treeValid: Bool = fValid
   var treeTail: Tail = fTail
   var tree: Seq[Seq[Scored]] = fCand.map(_.toSeq)
-  while (tree.head.length > (if (groups == 1) 4 else 2)) {
+  while (tree.head.length > DenseMatcher.treeKeep(p)) {
     val reduced = tree.map(_.grouped(4).map(firstMin).toSeq)
     val v = RegInit(false.B)
     val t = Reg(new Tail)
@@ -917,13 +917,14 @@ object DenseMatcher {
     */
   def ringDepth(p: ElasParams): Int = 1 << log2Ceil(p.dispMax + 4 + ownerStages + planeStages)
 
-  /** Registered levels of the first-minimum tree: each reduces blocks of 4 lanes until at most 4 (one candidate
-    * group per pixel) or 2 (several groups: one more compare with the earlier groups' minimum) are left.
+  /** Values the first-minimum tree's last register level leaves per view: at most 4 (one candidate group per
+    * pixel) or 1 (several groups: the running minimum over the groups then takes one compare per clock).
     */
-  def treeRegisters(p: ElasParams): Int = {
-    val keep = if (p.denseGroups == 1) 4 else 2
-    Iterator.iterate(p.denseLanesUsed)(n => (n + 3) / 4).takeWhile(_ > keep).length
-  }
+  def treeKeep(p: ElasParams): Int = if (p.denseGroups == 1) 4 else 1
+
+  /** Registered levels of the first-minimum tree: each reduces blocks of 4 lanes until treeKeep values are left. */
+  def treeRegisters(p: ElasParams): Int =
+    Iterator.iterate(p.denseLanesUsed)(n => (n + 3) / 4).takeWhile(_ > treeKeep(p)).length
 
   /** The data of a pipeline stage's memory entry, read one cycle ahead: when `enter`, the entry at `addr` enters the
     * stage; otherwise the stage keeps its entry and the read repeats its address (the memories are written only when
