@@ -871,14 +871,14 @@ class DenseMatcher(p: ElasParams) extends Module {
       val (l, r) = xs.splitAt(xs.length / 2)
       firstOf(firstMin(l), firstMin(r))
     }
-  // Registered levels of the tree: contiguous blocks of 4 lanes keep the candidate order, so the first minimum of
-  // the blocks' first minima is the first minimum of all. The last level leaves at most 4 values (groups = 1) or
-  // one (groups > 1: its compare with the earlier groups' minimum closes the loop through bestSoFar on its own).
+  // Registered levels of the tree: contiguous blocks of lanes keep the candidate order, so the first minimum of the
+  // blocks' first minima is the first minimum of all. The last level leaves at most 4 values (groups = 1) or one
+  // (groups > 1: its compare with the earlier groups' minimum closes the loop through bestSoFar on its own).
   var treeValid: Bool = fValid
   var treeTail: Tail = fTail
   var tree: Seq[Seq[Scored]] = fCand.map(_.toSeq)
   while (tree.head.length > DenseMatcher.treeKeep(p)) {
-    val reduced = tree.map(_.grouped(4).map(firstMin).toSeq)
+    val reduced = tree.map(_.grouped(DenseMatcher.treeArity(p)).map(firstMin).toSeq)
     val v = RegInit(false.B)
     val t = Reg(new Tail)
     val r = Reg(Vec(2, Vec(reduced.head.length, new Scored)))
@@ -922,9 +922,15 @@ object DenseMatcher {
     */
   def treeKeep(p: ElasParams): Int = if (p.denseGroups == 1) 4 else 1
 
-  /** Registered levels of the first-minimum tree: each reduces blocks of 4 lanes until treeKeep values are left. */
-  def treeRegisters(p: ElasParams): Int =
-    Iterator.iterate(p.denseLanesUsed)(n => (n + 3) / 4).takeWhile(_ > treeKeep(p)).length
+  /** Lanes a register level of the tree reduces to one: 4 (two compare-selects) with one candidate group per pixel;
+    * 2 with several, where the lanes are few and a register per compare-select costs little (two compare-selects
+    * in one step map to 7-8 LUT levels there, Yosys 0.23).
+    */
+  def treeArity(p: ElasParams): Int = if (p.denseGroups == 1) 4 else 2
+
+  /** Registered levels of the first-minimum tree: each reduces blocks of treeArity lanes until treeKeep are left. */
+  def treeRegisters(p: ElasParams): Int = Iterator.iterate(p.denseLanesUsed)(n => (n + treeArity(p) - 1) / treeArity(p))
+    .takeWhile(_ > treeKeep(p)).length
 
   /** The data of a pipeline stage's memory entry, read one cycle ahead: when `enter`, the entry at `addr` enters the
     * stage; otherwise the stage keeps its entry and the read repeats its address (the memories are written only when

@@ -248,11 +248,17 @@ case class ElasParams(
 }
 
 object ElasParams {
-  /** Fixed cycles a support point spends outside its lane sweeps at worst: 4 waiting for the left result (the
-    * SupportMatcher search pipeline) and the right reference read (the left one is prefetched meanwhile for the next
-    * node; a node that is not prefetched follows one that is not searched and took one cycle).
+  /** Fixed cycles a support point spends outside its lane sweeps: its two reference reads. The next node's left
+    * sweep runs while the search pipeline computes a node's left result, so no cycle waits for it, except at the
+    * last searched node of a lattice row (supportDrainCycles).
     */
-  val supportOverheadCycles: Int = 5
+  val supportOverheadCycles: Int = 2
+
+  /** Cycles the last searched node of a lattice row waits between its left sweep and its right reference read (the
+    * SupportMatcher search pipeline's depth and the registered right-sweep setup). The row's first node, never
+    * searched (it lies in the margin), takes one cycle of its supportCyclesPerPoint.
+    */
+  val supportDrainCycles: Int = 8
 
   /** Cycles of one support sweep over disparities 0..dhi at the worst alignment: the target columns t - r .. t + r
     * of all of them span dhi + 2r + 1 columns, i.e. at most ceil((dhi + 2r) / lanes) + 1 aligned blocks.

@@ -281,9 +281,11 @@ class FrameSizeTable(p: ElasParams, consumers: Int, depth: Int) extends Module {
     io.size(k) := RegNext(Mux(io.record.valid && read(k) === written, io.record.bits, table(read(k)(ptrBits - 2, 0))))
     when(io.started(k)) { read(k) := read(k) + 1.U }
   }
-  // full as a register, from the counters' next values (the guard's handshake waits on a flip-flop)
+  // full as a register, from the write counter's next value and the last consumer's read counter (the guard's
+  // handshake waits on a flip-flop; a start of frame frees its entry a clock later, so the post-processing
+  // handshake stays off this path)
   val full = RegInit(false.B)
-  full := (written + io.record.valid.asUInt) - (read(consumers - 1) + io.started(consumers - 1).asUInt) === depth.U
+  full := (written + io.record.valid.asUInt) - read(consumers - 1) === depth.U
   io.full := full
 }
 

@@ -30,19 +30,21 @@ import chisel3.util._
   * 2r columns are kept). The reference columns u ± r are read in one cycle (the L consecutive columns from u - r:
   * banks below (u - r) mod L read the next word) and kept in registers.
   *
-  * Pipeline (for timing: at most two compare-selects per stage): issue (block read) -> A: the four descriptor SADs of
-  * every lane (each a sum of four quarter-descriptor SADs) -> B: lane costs and the lane tree's first level -> C, E:
-  * the rest of the lane tree, about half each -> merge into the running best. A sweep's result is final 5 cycles after
-  * its last block was issued. The right sweep (u' = u - d1) starts as soon as d1 is known, without waiting for the left
-  * ratio and texture tests: it always runs, and a rejected left result is dropped at the node's decision. While the
-  * left result is computed, the read port is free: the next node's left references are prefetched then, so a searched
-  * node after a searched one starts its left sweep right after the previous right sweep. Node cycles: left blocks + 4
-  * waiting + 1 right reference read + right blocks, plus 1 left reference read when it was not prefetched (only after a
-  * node that is not searched, which takes one cycle): at most 5 + two sweeps of ceil((dhi + 2r) / L) + 1 blocks
-  * (ElasParams.supportNodeCycles), within supportCyclesPerPoint = cyclesPerPixel x step^2 at every configuration. The
-  * node's decision (right result, then the ratio, texture, range and left/right tests, then the output register)
-  * overlaps the next node's search; a node's value leaves about 8 cycles after its last block read (1 before the
-  * pipeline), a node that is not searched waits for it (values stay in raster order).
+  * Pipeline (for timing: at most two compare-selects per stage): issue (bank addresses registered) -> block read ->
+  * A: every lane's 16 quarter-descriptor SADs -> A2: two half costs per lane -> B: lane costs and the lane tree's
+  * first level -> C, E: the rest of the lane tree, about half each -> merge into the running best. A sweep's result is final 7 cycles after
+  * its last block was issued. The right sweep (u' = u - d1) always runs, without waiting for the left ratio and
+  * texture tests; a rejected left result is dropped at the node's decision.
+  * Schedule: every sweep follows its own reference read, and two nodes are in flight so that the read port never
+  * waits for the pipeline: L(n), L(n+1), R(n), L(n+2), R(n+1), ... (L = left reference read + left sweep, R = right
+  * reference read + right sweep, its setup registered from the node's left result). A node's left result arrives
+  * while the next node's left sweep runs. Node cycles: 2 reference reads + two sweeps of at most
+  * ceil((dhi + 2r) / L) + 1 blocks (ElasParams.supportNodeCycles), within supportCyclesPerPoint = cyclesPerPixel x
+  * step^2 at every named configuration. Only the last searched node of a lattice row (the next one is not searched, or
+  * is in the next lattice row, whose slot differs) waits for its own left result: ElasParams.supportDrainCycles, once
+  * per lattice row, paid by the row's first node, which lies in the margin and takes one cycle. The node's decision
+  * (right result, then the ratio, texture, range and left/right tests, then the output register) overlaps the next
+  * node's search; a node that is not searched waits for the previous decision (values stay in raster order).
   * Best/second best are merged over lanes and blocks in ascending d with the smaller d winning a tie (strict "<"
   * against the smaller-d operand), which equals the sequential definition (E1 min, d1 its smallest d, E2 the second
   * smallest of the multiset).
@@ -208,7 +210,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   }
 
   // ---- walker: every lattice node in raster order ----
-  val sIdle :: sNode :: sSweep :: sWait :: Nil = Enum(4)
+  val sIdle :: sNode :: sSweep :: sRight :: Nil = Enum(4)
   val state = RegInit(sIdle)
   val phaseLeft = RegInit(true.B) // sweeping with the left view as reference
   val uRef = RegInit(0.U(p.colBits.W)) // reference column of the current sweep
@@ -225,7 +227,6 @@ class SupportMatcher(p: ElasParams) extends Module {
   def searched(u: UInt): Bool = rowActive && u >= margin.U && u +& margin.U < width && dhiLOf(u) >= p.supportMinRange.U
   // the next node of this row (when not eol), registered: walkU is stable for cycles before it is used
   val uNext = RegNext(Mux(walkU +& step.U < width, walkU + step.U, width - 1.U))
-  val uNextC0 = RegNext(Mux(walkU +& step.U < width, walkU + step.U, width - 1.U) - r.U) // uNext - r, as uNext
   // per frame (width is held all frame): the last column t - r a right sweep may reach, W - 1 - margin - r, and + 2r
   val rightLimit = RegNext(width - (1 + margin + r).U)
   val rightLimit2 = RegNext(width - (1 + margin - r).U)
@@ -240,16 +241,11 @@ class SupportMatcher(p: ElasParams) extends Module {
   val maxC1 = RegInit(0.U(colW.W))
   // One read per bank and cycle. A reference read fetches the L consecutive columns from c0 = u - r on (banks below
   // c0 mod L read the next word), so u - r and u + r (2r < L) arrive together; a sweep reads the aligned block j.
-  val prefetch = RegInit(false.B) // the next node's references are still to be read in this wait
   val refIssue = WireDefault(false.B) // a left reference read is issued this cycle (else the sweep reads block j)
-  // ... its first column: uNext - r in the wait's first cycle (prefetch is set only then), else the node's u - r
-  // (sNode); a single register selects, so the state decode stays off the address
-  val refC0Now = Mux(prefetch, uNextC0, walkU - r.U).pad(colW)
-  val readC0 = RegInit(0.U(colW.W)) // c0 of the reference read issued last cycle
-  val refRead = RegInit(false.B) //  the data of this cycle: the current sweep's references
-  val nextRead = RegInit(false.B) // ... the next node's left references (read while a left result is computed)
+  val refC0Now = (walkU - r.U).pad(colW) // ... its first column (the walker's node u - r)
+  val readC0 = RegInit(0.U(colW.W)) // c0 of that reference read
+  val refRead = RegInit(false.B) //  the read of this cycle's registered addresses: the next sweep's references
   refRead := false.B
-  nextRead := false.B
   def readLeftReference(): Unit = {
     refIssue := true.B
     readC0 := refC0Now
@@ -276,7 +272,12 @@ class SupportMatcher(p: ElasParams) extends Module {
   val sweepWord = readAddress(phaseLeft, j, 0.U).word // sweep: the target view (the right one for the left sweep)
   val refAddr = bankAddresses(readAddress(false.B, blockOf(refC0Now), refC0Now(bankBits - 1, 0)))
   val bankAddr = WireDefault(Mux(refIssue, refAddr, VecInit(Seq.fill(banks)(sweepWord))))
-  val data = (0 until 2).map(kind => (0 until banks).map(b => RegNext(rowMem(kind)(b).read(bankAddr(b)))))
+  // Each bank's address is registered before the read: one register per bank drives only its own block RAMs (on the
+  // ECP5 the unregistered address, fanned out to every bank, spent 10 ns in routing), at one more cycle of latency.
+  val bankAddrReg = RegNext(bankAddr)
+  val data = (0 until 2).map(kind => (0 until banks).map(b => RegNext(rowMem(kind)(b).read(bankAddrReg(b)))))
+  /** x two cycles later: the issue cycle's view of a block, aligned with its data. */
+  def atData[T <: Data](x: T): T = RegNext(RegNext(x))
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
   // ---- reference descriptors (columns c0 and c0 + 2r of a reference read), kept in registers ----
@@ -284,18 +285,14 @@ class SupportMatcher(p: ElasParams) extends Module {
     * one-hot AND-OR of the banks.
     */
   def column(data: Seq[UInt], col: UInt): UInt = VecInit(data)(col(bankBits - 1, 0))
+  // Every sweep follows its own reference read at once, so one register pair serves both kinds of sweep: the
+  // previous sweep's last block has left stage A when the new references arrive.
+  val refData = RegNext(refRead, false.B) // the reference read's data is in `data`
+  val refDataC0 = RegNext(readC0)
   val refLo = Reg(Vec(2, UInt(descBits.W)))
   val refHi = Reg(Vec(2, UInt(descBits.W)))
-  val nextLo = Reg(Vec(2, UInt(descBits.W)))
-  val nextHi = Reg(Vec(2, UInt(descBits.W)))
-  val copyNext = RegInit(false.B) // the next node's sweep has started: its prefetched references take over
-  copyNext := false.B
   for (kind <- 0 until 2) {
-    val lo = column(data(kind), readC0)
-    val hi = column(data(kind), readC0 + (2 * r).U)
-    when(refRead) { refLo(kind) := lo; refHi(kind) := hi }
-    when(nextRead) { nextLo(kind) := lo; nextHi(kind) := hi }
-    when(copyNext) { refLo(kind) := nextLo(kind); refHi(kind) := nextHi(kind) }
+    when(refData) { refLo(kind) := column(data(kind), refDataC0); refHi(kind) := column(data(kind), refDataC0 + (2 * r).U) }
   }
 
   // ---- search pipeline: issue (read) -> A: the four SADs per lane -> B: lane costs, first tree level -> C, E: the
@@ -309,8 +306,8 @@ class SupportMatcher(p: ElasParams) extends Module {
   val issue = state === sSweep && !hold
   val tag = Wire(new Tag)
   tag.left := phaseLeft; tag.first := sweepStart; tag.last := j === jLo
-  val s0Valid = RegNext(issue, false.B)
-  val s0Tag = RegNext(tag)
+  val s0Valid = RegNext(RegNext(issue, false.B), false.B) // the block's data is in `data`
+  val s0Tag = atData(tag)
   // Which lanes of block j hold columns c1 = jL + k of the sweep (laneLo <= k < laneEnd), and lane k's d (left:
   // maxC1 - c1 = dBase - k, right: c1 - minC1 = dBase + k, modulo 2^baseW), decided per block in the issue cycle
   // so that a lane adds a constant instead of comparing and subtracting columns.
@@ -318,9 +315,9 @@ class SupportMatcher(p: ElasParams) extends Module {
   private def high(col: UInt): UInt = col >> bankBits
   private def low(col: UInt): UInt = col(bankBits - 1, 0)
   val blockStart = Cat(j, 0.U(bankBits.W))
-  val s0LaneLo = RegNext(Mux(j > high(minC1), 0.U(laneW.W), Mux(j === high(minC1), low(minC1), banks.U)))
-  val s0LaneEnd = RegNext(Mux(j < high(maxC1), banks.U(laneW.W), Mux(j === high(maxC1), low(maxC1) +& 1.U, 0.U)))
-  val s0DBase = RegNext(Mux(phaseLeft, maxC1 - blockStart, blockStart - minC1)(baseW - 1, 0))
+  val s0LaneLo = atData(Mux(j > high(minC1), 0.U(laneW.W), Mux(j === high(minC1), low(minC1), banks.U)))
+  val s0LaneEnd = atData(Mux(j < high(maxC1), banks.U(laneW.W), Mux(j === high(maxC1), low(maxC1) +& 1.U, 0.U)))
+  val s0DBase = atData(Mux(phaseLeft, maxC1 - blockStart, blockStart - minC1)(baseW - 1, 0))
   // columns 0 .. 2r - 1 of the block issued before (block j + 1): the partners of the top 2r lanes
   val prevBlock = data.map(cols => RegEnable(VecInit(cols.take(2 * r).toSeq), s0Valid))
 
@@ -343,9 +340,9 @@ class SupportMatcher(p: ElasParams) extends Module {
   def treeLevels(xs: Seq[Best], levels: Int, left: Bool): Seq[Best] =
     (0 until levels).foldLeft(xs)((ys, _) => ys.grouped(2).map(g => merge(g(0), g(1), left)).toSeq)
 
-  // A: per lane (target column c1 = jL + k and its partner c1 + 2r, in this block or the one issued before) the four
-  // SADs from quarter-descriptor SADs, registered as two half costs (not per quarter); whether c1 is in
-  // the sweep and its d (left d = maxC1 - c1, right c1 - minC1)
+  // A: per lane (target column c1 = jL + k and its partner c1 + 2r, in this block or the one issued before) the
+  // four SADs as 16 quarter-descriptor SADs, registered (a whole SAD from the block's data is 10 LUT levels deep);
+  // whether c1 is in the sweep and its d (left d = maxC1 - c1, right c1 - minC1)
   private val sadParts = 4
   private val partBits = 8 * p.descriptorBytes / sadParts
   require(partBits * sadParts == 8 * p.descriptorBytes)
@@ -353,37 +350,42 @@ class SupportMatcher(p: ElasParams) extends Module {
     (0 until sadParts).map(i => sad(x((i + 1) * partBits - 1, i * partBits), y((i + 1) * partBits - 1, i * partBits)))
   val aValid = RegNext(s0Valid, false.B)
   val aTag = RegEnable(s0Tag, s0Valid)
-  val aSad = (0 until lanes).map { k =>
+  val aParts = (0 until lanes).map { k =>
     val parts = (0 until 2).flatMap { kind =>
       val cur = data(kind)
       val partner = if (k + 2 * r < banks) cur(k + 2 * r) else prevBlock(kind)(k + 2 * r - banks)
       partSads(refLo(kind), cur(k)) ++ partSads(refHi(kind), partner)
     }
-    // two half costs (the left and right descriptor kinds' SAD pairs): B adds them and compares in one adder depth
-    RegEnable(VecInit(parts.grouped(2 * sadParts).map(SupportMatcher.sumTree).toSeq), s0Valid)
+    RegEnable(VecInit(parts), s0Valid)
   }
   val aLane = (0 until lanes).map { k =>
     val inSweep = k.U >= s0LaneLo && k.U < s0LaneEnd
     val d = s0DBase + Mux(s0Tag.left, (((1 << baseW) - k) % (1 << baseW)).U(baseW.W), k.U(baseW.W))
     (RegEnable(inSweep, s0Valid), RegEnable(d, s0Valid))
   }
+  // A2: two half costs per lane (the left and right descriptor kinds' SAD pairs): B adds them and compares in one
+  // adder depth
+  val a2Valid = RegNext(aValid, false.B)
+  val a2Tag = RegEnable(aTag, aValid)
+  val aSad = aParts.map(parts => RegEnable(VecInit(parts.grouped(2 * sadParts).map(SupportMatcher.sumTree).toSeq), aValid))
+  val a2Lane = aLane.map { case (inSweep, d) => (RegEnable(inSweep, aValid), RegEnable(d, aValid)) }
   // B: lane costs and the lane tree's first level (a lane's E2 is "none", so a pair's E2 is its larger E1)
   private val levels = log2Ceil(lanes)
   private val levelsB = 1
   private val levelsC = (levels - levelsB + 1) / 2
-  val bValid = RegNext(aValid, false.B)
-  val bTag = RegEnable(aTag, aValid)
+  val bValid = RegNext(a2Valid, false.B)
+  val bTag = RegEnable(a2Tag, a2Valid)
   // The first level compares the raw lane costs and folds "lane in the sweep" into the decision and the outputs, so
   // no costInf multiplexer sits between the adder and the compare.
   val laneCost = aSad.map(SupportMatcher.sumTree)
   require(levelsB == 1)
   val bBest = (0 until lanes by 2).map { k =>
-    val (ia, da) = aLane(k); val (ib, db) = aLane(k + 1)
+    val (ia, da) = a2Lane(k); val (ib, db) = a2Lane(k + 1)
     val (ea, eb) = (laneCost(k), laneCost(k + 1))
     // lane k + 1 wins (merge's rule on costs with costInf outside the sweep; it holds the smaller d when left)
-    val w = Mux(aTag.left, Mux(ib, !ia || eb <= ea, !ia), ib && (!ia || eb < ea))
+    val w = Mux(a2Tag.left, Mux(ib, !ia || eb <= ea, !ia), ib && (!ia || eb < ea))
     val eaOr = Mux(ia, ea, costInf); val ebOr = Mux(ib, eb, costInf)
-    RegEnable(best(Mux(w, ebOr, eaOr), Mux(w, db, da), Mux(w, eaOr, ebOr)), aValid)
+    RegEnable(best(Mux(w, ebOr, eaOr), Mux(w, db, da), Mux(w, eaOr, ebOr)), a2Valid)
   }
   // C, E: the rest of the lane tree (ascending lanes, ties to the smaller d), about half of its levels each
   val cValid = RegNext(bValid, false.B)
@@ -394,11 +396,50 @@ class SupportMatcher(p: ElasParams) extends Module {
   val blockBest = RegEnable(treeLevels(cBest, levels - levelsB - levelsC, cTag.left).head, cValid)
   // merge: each later block holds higher d (left sweep) or lower d (right sweep)
   val running = Reg(new Best)
-  val takeBlock = eTag.first || bWins(running, blockBest, !eTag.left) // the merged d1 is the block's
   val merged = Mux(eTag.first, blockBest, merge(running, blockBest, !eTag.left))
   when(eValid) { running := merged }
   val leftDone = eValid && eTag.last && eTag.left //   this cycle's merged is the left sweep's result
   val rightDone = eValid && eTag.last && !eTag.left // ... the right sweep's
+
+  val nodeEol = walkU === width - 1.U
+  val nodeEof = nodeEol && walkV === height - 1.U
+  val nodeSof = walkU === 0.U && walkV === 0.U
+
+  // ---- nodes whose left sweep is issued and whose right sweep is not (at most two: the walker's and the one before)
+  class LeftNode extends Bundle {
+    val flags = Vec(3, Bool()) // sof, eol, eof
+    val c0 = UInt(colW.W) //       u - r, u - r + dispMax, u + r + dispMax (the right sweep's bounds are these - d1)
+    val top = UInt((colW + 1).W)
+    val top2 = UInt((colW + 1).W)
+    val left = new Best //         the left sweep's result (when done)
+    val texL = Bool() //           texture bit at u
+    val done = Bool()
+  }
+  val leftNodes = Reg(Vec(2, new LeftNode))
+  val lnCount = RegInit(0.U(2.W))
+  val lnHead = RegInit(0.U(1.W)) //   the oldest (the next right sweep's)
+  val lnResult = RegInit(0.U(1.W)) // the one the next left result belongs to
+  val lnTail = lnHead + lnCount(0) // where the next node goes (count < 2)
+  val enqueue = WireDefault(false.B)
+  val dequeue = WireDefault(false.B)
+  lnCount := lnCount + enqueue.asUInt - dequeue.asUInt
+  when(dequeue) { lnHead := ~lnHead }
+  when(enqueue) {
+    val n = leftNodes(lnTail)
+    n.flags := VecInit(nodeSof, nodeEol, nodeEof)
+    n.c0 := refC0; n.top := refTop; n.top2 := refTop2
+    n.done := false.B
+  }
+  // the texture bit at u is read from uRef, which holds u from the reference read until the next one: one cycle
+  // after the last left block it is in (a sweep has at least one block)
+  val texLAt = RegEnable(lnTail, enqueue)
+  when(RegNext(enqueue, false.B)) { leftNodes(texLAt).texL := texBits(0) }
+  when(leftDone) {
+    leftNodes(lnResult).left := merged
+    leftNodes(lnResult).done := true.B
+    lnResult := ~lnResult
+  }
+  val headReady = lnCount =/= 0.U && leftNodes(lnHead).done
 
   // ---- the node whose right sweep is done waits here for its decision and the output register ----
   val pendBusy = RegInit(false.B)
@@ -410,16 +451,10 @@ class SupportMatcher(p: ElasParams) extends Module {
   val pendTexR = Reg(Bool())
   val pendRangeOk = Reg(Bool()) // the right sweep's range reaches supportMinRange
   val pendOk = Reg(Bool())
-  val curLeft = Reg(new Best) //   the current node's left result and texture bit
-  val curTexL = Reg(Bool())
-  val prefetched = RegInit(false.B) // they are read, and the next node is searched
 
   // ---- output register ----
   val output = new OutputRegister(io.out)
 
-  val nodeEol = walkU === width - 1.U
-  val nodeEof = nodeEol && walkV === height - 1.U
-  val nodeSof = walkU === 0.U && walkV === 0.U
   def output(value: SInt, sof: Bool, eol: Bool, eof: Bool): Unit = {
     output.valid := true.B
     output.bits.data := value
@@ -439,7 +474,7 @@ class SupportMatcher(p: ElasParams) extends Module {
       walkU := Mux(walkU +& step.U < width, walkU + step.U, width - 1.U)
     }
   }
-  /** Sets up the left sweep of node u (its references are read or prefetched). */
+  /** Sets up the left sweep of node u (its references are read this cycle). */
   def startLeft(u: UInt): Unit = {
     val dhiL = dhiLOf(u)
     phaseLeft := true.B; uRef := u
@@ -456,33 +491,39 @@ class SupportMatcher(p: ElasParams) extends Module {
   val none = (-1).S(p.signedDispBits.W)
   def ratioOk(b: Best): Bool = (b.e1 * 100.U) < (b.e2 * p.supportThresholdPercent.U)
 
-  // The left decision's right sweep setup for one d1 (both candidates are computed, the merge picks one).
+  // The oldest left node's right sweep setup (reference u' = u - d1), registered: its reference read issues from
+  // registers, one cycle after the left result is in.
   class RightSetup extends Bundle {
-    val c0 = UInt(colW.W) //   u' - r, u' = u - d1
+    val uPrime = UInt(p.colBits.W)
+    val c0 = UInt(colW.W) //   u' - r
     val maxC1 = UInt(colW.W) // u' - r + min(W - 1 - margin - u', dispMax)
     val j = UInt(blockW.W)
+    val jLo = UInt(blockW.W)
     val bankAddr = Vec(banks, UInt(addrW.W)) // each bank's address of the right reference read
   }
-  def rightSetup(d1: UInt): RightSetup = {
+  def rightSetup(n: LeftNode): RightSetup = {
     val s = Wire(new RightSetup)
-    val d = d1(p.dispBits - 1, 0)
-    s.c0 := refC0 - d
-    val top = refTop - d
-    val top2 = refTop2 - d
+    val d = n.left.d1(p.dispBits - 1, 0)
+    s.c0 := n.c0 - d
+    s.uPrime := (n.c0 - d + r.U)(p.colBits - 1, 0)
+    val top = n.top - d
+    val top2 = n.top2 - d
     s.maxC1 := Mux(top > rightLimit, rightLimit, top)(colW - 1, 0)
     s.j := blockOf(Mux(top2 > rightLimit2, rightLimit2, top2))
+    s.jLo := blockOf(s.c0)
     s.bankAddr := bankAddresses(readAddress(true.B, blockOf(s.c0), s.c0(bankBits - 1, 0)))
     s
   }
-  // The running best's setup is kept in a register that follows `running` (a left sweep's first block always
-  // replaces it, after its startLeft has set refC0 and the walk slot): the merge's compare then only selects between
-  // it and the block's setup. (Two setups computed from running.d1 and blockBest.d1 would be merged by Yosys'
-  // opt_share into one subtract after the compare's multiplexer.)
-  val blockSetup = rightSetup(blockBest.d1)
-  val runningSetup = Reg(new RightSetup)
-  when(eValid) { runningSetup := Mux(takeBlock, blockSetup, runningSetup) }
-  val rightNext = Mux(takeBlock, blockSetup, runningSetup)
-  val decideLeft = state === sWait && leftDone
+  val headSetup = RegNext(rightSetup(leftNodes(lnHead)))
+  val headSetupValid = RegNext(headReady && !dequeue, false.B) // headSetup is the current head's
+  val rightIssue = state === sRight && headSetupValid
+  /** After the last block of a sweep, with `others` left nodes besides the walker's: the next node's left sweep
+    * goes first when it is searched in this lattice row and only the walker's node waits (its result then arrives
+    * while the next node is swept: no cycle waits for the search pipeline); else the oldest node's right sweep.
+    */
+  def next(walkerWaits: Bool): Unit = {
+    when(walkerWaits && !nodeEol && searched(uNext)) { advance() }.otherwise { state := sRight }
+  }
 
   switch(state) {
     is(sIdle) {
@@ -510,52 +551,38 @@ class SupportMatcher(p: ElasParams) extends Module {
         j := j - 1.U
         when(j === jLo) {
           when(phaseLeft) {
-            state := sWait
-            prefetch := true.B
-          }.otherwise { // hand the node to the decision and go on with the next one
+            enqueue := true.B
+            next(lnCount === 0.U)
+          }.otherwise { // hand the oldest node to the decision
+            dequeue := true.B
+            val n = leftNodes(lnHead)
             pendBusy := true.B
-            pendFlags := VecInit(nodeSof, nodeEol, nodeEof)
-            pendLeft := curLeft
-            pendTexL := curTexL
+            pendFlags := n.flags
+            pendLeft := n.left
+            pendTexL := n.texL
             pendRangeOk := maxC1 - minC1 >= p.supportMinRange.U
-            advance()
-            when(prefetched) {
-              startLeft(uNext)
-              copyNext := true.B
-              prefetched := false.B
-            }
+            when(lnCount === 1.U) { advance() }.otherwise { next(true.B) }
           }
         }
       }
     }
-    is(sWait) { // the left result is 5 cycles behind its last block; the next node's references are read meanwhile
-      when(prefetch) {
-        prefetch := false.B
-        readLeftReference() // at uNext - r, a register: the reference address multiplexer follows no subtract
-        when(!nodeEol && searched(uNext)) {
-          nextRead := true.B
-          prefetched := true.B
-        }
-      }
-      when(leftDone) {
-        // the right sweep (reference u' = u - d1) starts at once; a rejected left result is dropped at the decision
-        curLeft := merged
-        curTexL := texBits(0) // read at uRef = u
+    is(sRight) { // the right sweep of the oldest left node starts once its setup is in
+      when(rightIssue) {
         phaseLeft := false.B
-        uRef := uRef - merged.d1(p.dispBits - 1, 0)
-        readC0 := rightNext.c0 // the read itself is rightNext.bankAddr (below)
+        uRef := headSetup.uPrime
+        readC0 := headSetup.c0
         refRead := true.B
         sweepStart := true.B
-        minC1 := rightNext.c0
-        maxC1 := rightNext.maxC1
-        j := rightNext.j
-        jLo := blockOf(rightNext.c0)
+        minC1 := headSetup.c0
+        maxC1 := headSetup.maxC1
+        j := headSetup.j
+        jLo := headSetup.jLo
         state := sSweep
       }
     }
   }
-  when(decideLeft) { bankAddr := rightNext.bankAddr } // the right references, u' - r .. u' + r
-  // the last right block of the next node waits until this node's decision has left
+  when(rightIssue) { bankAddr := headSetup.bankAddr } // the right references, u' - r .. u' + r
+  // the last right block of a node waits until the previous node's decision has left
   when(state === sSweep && !phaseLeft && j === jLo && pendBusy) { hold := true.B }
 
   // decision of the pending node: its right result, then the tests, then the output register
@@ -589,7 +616,8 @@ object SupportMatcher {
   def costBits(p: ElasParams): Int = log2Ceil(4 * p.descriptorBytes * 255 + 2)
 
   /** Cycles of the search for one searched node with left/right ranges dhiL/dhiR at the worst block alignment: the
-    * sweeps' blocks, the wait for the left result and the right reference read (ElasParams.supportNodeCycles).
+    * sweeps' blocks and the two reference reads (ElasParams.supportNodeCycles; a lattice row's last searched node adds
+    * ElasParams.supportDrainCycles).
     */
   def nodeCycles(p: ElasParams, dhiL: Int, dhiR: Int): Int =
     ElasParams.supportOverheadCycles + ElasParams.supportSweepCycles(dhiL, p.windowRadius, p.supportLanesUsed) +

@@ -21,6 +21,9 @@ class SupportMatcherSpec extends AnyFlatSpec {
     for (p <- ElasParams.named) {
       val worst = SupportMatcher.nodeCycles(p, p.dispMax, p.dispMax) // node start, 2 x (blocks + decision)
       assert(worst <= p.supportCyclesPerPoint, s"${p.name}: $worst cycles per node > budget ${p.supportCyclesPerPoint}")
+      // a lattice row's last searched node waits for its left result; the row's first node (never searched) pays it
+      assert(ElasParams.supportDrainCycles + 1 <= p.supportCyclesPerPoint, s"${p.name}: no room for the row's drain")
+      assert(p.supportMargin > 0, s"${p.name}: the row's first node would be searched")
     }
   }
   it should "match the golden support lattice at config small-w7 (windowSize 7: 3 row slots, 16 banks)" in {
