@@ -30,11 +30,12 @@ import chisel3.util._
   * 2r columns are kept). The reference columns u ± r are read in one cycle (the L consecutive columns from u - r:
   * banks below (u - r) mod L read the next word) and kept in registers.
   *
-  * Pipeline (for timing: at most two compare-selects per stage): issue (bank addresses registered) -> block read ->
-  * A: every lane's 16 quarter-descriptor SADs -> A2: two half costs per lane -> B: lane costs and the lane tree's
-  * first level -> C, E: the rest of the lane tree, about half each -> merge into the running best. A sweep's result is final 7 cycles after
-  * its last block was issued. The right sweep (u' = u - d1) always runs, without waiting for the left ratio and
-  * texture tests; a rejected left result is dropped at the node's decision.
+  * Pipeline (for timing: at most two compare-selects per stage): issue (bank addresses registered) -> block read
+  * (read and output registers) -> A: every lane's 16 quarter-descriptor SADs -> A2: two half costs per lane -> B:
+  * lane costs and the lane tree's first level -> C, E: the rest of the lane tree, about half each -> merge into the
+  * running best. A sweep's result is final 8 cycles after its last block was issued. The right sweep (u' = u - d1)
+  * always runs, without waiting for the left ratio and texture tests; a rejected left result is dropped at the node's
+  * decision.
   * Schedule: every sweep follows its own reference read, and two nodes are in flight so that the read port never
   * waits for the pipeline: L(n), L(n+1), R(n), L(n+2), R(n+1), ... (L = left reference read + left sweep, R = right
   * reference read + right sweep, its setup registered from the node's left result). A node's left result arrives
@@ -274,10 +275,12 @@ class SupportMatcher(p: ElasParams) extends Module {
   val bankAddr = WireDefault(Mux(refIssue, refAddr, VecInit(Seq.fill(banks)(sweepWord))))
   // Each bank's address is registered before the read: one register per bank drives only its own block RAMs (on the
   // ECP5 the unregistered address, fanned out to every bank, spent 10 ns in routing), at one more cycle of latency.
+  // The read data is registered twice (the block RAM's read register and its output register), so the SADs start
+  // from a flip-flop next to them, not from a block RAM's output across the device.
   val bankAddrReg = RegNext(bankAddr)
-  val data = (0 until 2).map(kind => (0 until banks).map(b => RegNext(rowMem(kind)(b).read(bankAddrReg(b)))))
-  /** x two cycles later: the issue cycle's view of a block, aligned with its data. */
-  def atData[T <: Data](x: T): T = RegNext(RegNext(x))
+  val data = (0 until 2).map(kind => (0 until banks).map(b => RegNext(RegNext(rowMem(kind)(b).read(bankAddrReg(b))))))
+  /** x SupportMatcher.readLatency cycles later: the issue cycle's view of a block, aligned with its data. */
+  def atData[T <: Data](x: T): T = ShiftRegister(x, SupportMatcher.readLatency)
   val texBits = texMem.read(texAddress(walkSlot, uRef))
 
   // ---- reference descriptors (columns c0 and c0 + 2r of a reference read), kept in registers ----
@@ -287,8 +290,8 @@ class SupportMatcher(p: ElasParams) extends Module {
   def column(data: Seq[UInt], col: UInt): UInt = VecInit(data)(col(bankBits - 1, 0))
   // Every sweep follows its own reference read at once, so one register pair serves both kinds of sweep: the
   // previous sweep's last block has left stage A when the new references arrive.
-  val refData = RegNext(refRead, false.B) // the reference read's data is in `data`
-  val refDataC0 = RegNext(readC0)
+  val refData = ShiftRegister(refRead, SupportMatcher.readLatency - 1, false.B, true.B) // its data is in `data`
+  val refDataC0 = ShiftRegister(readC0, SupportMatcher.readLatency - 1)
   val refLo = Reg(Vec(2, UInt(descBits.W)))
   val refHi = Reg(Vec(2, UInt(descBits.W)))
   for (kind <- 0 until 2) {
@@ -306,7 +309,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   val issue = state === sSweep && !hold
   val tag = Wire(new Tag)
   tag.left := phaseLeft; tag.first := sweepStart; tag.last := j === jLo
-  val s0Valid = RegNext(RegNext(issue, false.B), false.B) // the block's data is in `data`
+  val s0Valid = ShiftRegister(issue, SupportMatcher.readLatency, false.B, true.B) // the block's data is in `data`
   val s0Tag = atData(tag)
   // Which lanes of block j hold columns c1 = jL + k of the sweep (laneLo <= k < laneEnd), and lane k's d (left:
   // maxC1 - c1 = dBase - k, right: c1 - minC1 = dBase + k, modulo 2^baseW), decided per block in the issue cycle
@@ -602,6 +605,11 @@ class SupportMatcher(p: ElasParams) extends Module {
 }
 
 object SupportMatcher {
+  /** Cycles from a read's issue to its data in the `data` registers: the bank address register, the block RAM's
+    * read register and its output register.
+    */
+  val readLatency: Int = 3
+
   /** Lattice rows whose descriptor rows are buffered at once (see the class doc). */
   def slots(p: ElasParams): Int = (2 to 64).find(k => (k - 1) * p.candidateStep >= 2 * p.windowRadius + 1).get
 
