@@ -189,16 +189,31 @@ class DenseMatcher(p: ElasParams) extends Module {
     val bl = SInt((colW + 4).W)
     val br = SInt((colW + 4).W)
   }
-  def cellCuts(cc: UInt, exists: Bool, corners: Vec[UInt]): Cuts = {
+  /** Cell cc's place in the row: whether it exists (cc <= lastCell) and its left and right column x0, x1. */
+  class CellAt extends Bundle {
+    val cc = UInt(cellW.W)
+    val exists = Bool()
+    val x0 = UInt((colW + 2).W)
+    val x1 = UInt((colW + 2).W)
+  }
+  /** x0 = cc x step (mod 2^(colW + 2)) comes in from a counter kept beside cc: a constant multiply maps to a DSP,
+    * whose delay would sit between the cell counter and the offsets. */
+  def cellAt(cc: UInt, x0: UInt): CellAt = {
+    val c = Wire(new CellAt)
+    c.cc := cc
+    c.exists := cc <= lastCell
+    c.x0 := x0
+    val x1raw = c.x0 +& step.U
+    c.x1 := Mux(x1raw > width - 1.U, width - 1.U, x1raw)
+    c
+  }
+  def cellCuts(at: CellAt, corners: Vec[UInt]): Cuts = {
     val c = Wire(new Cuts)
-    val x0 = (cc * step.U).pad(colW + 2)(colW + 1, 0)
-    val x1raw = x0 +& step.U
-    val x1 = Mux(x1raw > width - 1.U, width - 1.U, x1raw)
-    c.valid := exists
-    c.tl := x0.zext - corners(0).zext
-    c.tr := x1.zext - corners(1).zext
-    c.bl := x0.zext - corners(2).zext
-    c.br := x1.zext - corners(3).zext
+    c.valid := at.exists
+    c.tl := at.x0.zext - corners(0).zext
+    c.tr := at.x1.zext - corners(1).zext
+    c.bl := at.x0.zext - corners(2).zext
+    c.br := at.x1.zext - corners(3).zext
     c
   }
   /** The second step: e, g, f of row offset (up, down) and each triangle's ordered interval. */
@@ -232,7 +247,9 @@ class DenseMatcher(p: ElasParams) extends Module {
     val h = UInt(inW.W) //          cell height of the row: y1 - y0 of cell row cr
     val up = UInt(inW.W) //         h - vIn (y1 - v), registered so the window's products start at a register
     val uh = UInt((colW + inW).W) // u * h, kept by adding h (the rasteriser's scaled column)
+    val shiftX0 = UInt((colW + 2).W) // (cu + K - 1) * step (mod 2^(colW + 2)): the column of the cell a shift brings in
   }
+  private val shiftX0First = (((K - 1) * step) % (1 << (colW + 2))).U((colW + 2).W) // shiftX0 at u = 0
   def rowEnd(q: Pos): Bool = q.u === width - 1.U
   def frameEnd(q: Pos): Bool = rowEnd(q) && q.v === height - 1.U
   def nextCellRow(q: Pos): Bool = q.vIn === (step - 1).U && q.cr < lastCellRow
@@ -246,6 +263,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     n := q
     when(rowEnd(q)) {
       n.u := 0.U; n.cu := 0.U; n.uIn := 0.U; n.gx := 0.U; n.uG := 0.U
+      n.shiftX0 := shiftX0First
       n.v := q.v + 1.U
       n.uh := 0.U
       n.h := Mux(nextCr, hNext, hCur)
@@ -254,7 +272,8 @@ class DenseMatcher(p: ElasParams) extends Module {
     }.otherwise {
       n.u := q.u + 1.U
       n.uh := q.uh + q.h
-      when(nextCellCol(q)) { n.cu := q.cu + 1.U; n.uIn := 0.U }.otherwise { n.uIn := q.uIn + 1.U }
+      when(nextCellCol(q)) { n.cu := q.cu + 1.U; n.uIn := 0.U; n.shiftX0 := q.shiftX0 + step.U }
+        .otherwise { n.uIn := q.uIn + 1.U }
       when(q.uG === (G - 1).U) { n.gx := q.gx + 1.U; n.uG := 0.U }.otherwise { n.uG := q.uG + 1.U }
     }
     // h - vIn: a new cell row starts at vIn = 0; otherwise h stays (one height per cell row) and vIn counts up
@@ -262,10 +281,12 @@ class DenseMatcher(p: ElasParams) extends Module {
     n
   }
   // The last cell row's height min(step, H - 1 - y0) (every other cell row is step high), for the pixel generator.
-  val lastRowH = RegNext(Mux(height - 1.U - lastCellRow * step.U < step.U, height - 1.U - lastCellRow * step.U, step.U))
-  /** Row geometry of cell row cr at image row offset vIn: (h, up = y1 - v, down = v - y0). */
-  def rowGeometry(cr: UInt, vIn: UInt): (UInt, UInt, UInt) = {
-    val y0 = (cr * step.U).pad(rowW + 2)(rowW + 1, 0)
+  // (the products by step are registers of their own: a constant multiply is a DSP, kept off the compares)
+  val lastCellRowY0 = RegNext(lastCellRow * step.U)
+  val lastRowH = RegNext(Mux(height - 1.U - lastCellRowY0 < step.U, height - 1.U - lastCellRowY0, step.U))
+  /** Row geometry of a cell row starting at image row y0 (= cr x step mod 2^(rowW + 2), from a counter), at image
+    * row offset vIn: (h, up = y1 - v, down = v - y0). */
+  def rowGeometry(y0: UInt, vIn: UInt): (UInt, UInt, UInt) = {
     val y1raw = y0 +& step.U
     val y1 = Mux(y1raw > height - 1.U, height - 1.U, y1raw)
     val h = (y1 - y0)(inW - 1, 0)
@@ -277,6 +298,7 @@ class DenseMatcher(p: ElasParams) extends Module {
 
   val aValid = RegInit(false.B)
   val aFirst = RegInit(false.B) // a.u = 0, registered with a (it selects the raster window: keep it off the compare)
+  val aShift = Reg(new CellAt) // the cell a window shift at a brings in, cu + K - 1 (see `shiftCuts`)
   val a = Reg(new Pos)
   val shadow = Reg(Vec(K, new Span))
   val shadowFull = RegInit(false.B)
@@ -312,7 +334,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   val gen = Reg(new Pos)
   val genActive = RegInit(false.B)
   // gen's cell-row facts, a register behind gen: its cell row changes only at a row end, and the next row end that
-  // reads them is a row (>= 2 pixels) later; lastCellRow and lastRowH settle within 3 cycles of sof, long before
+  // reads them is a row (>= 2 pixels) later; lastCellRow and lastRowH settle within 4 cycles of sof, long before
   // gen's first row end (the primer lag is D steps).
   val genBelow = RegNext(gen.cr < lastCellRow)
   val genHCur = RegNext(Mux(gen.cr === lastCellRow, lastRowH, step.U))
@@ -335,6 +357,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       sofPending := true.B
       genActive := true.B
       gen := 0.U.asTypeOf(new Pos)
+      gen.shiftX0 := shiftX0First
       gen.fp := !inFp
       val firstRowH = Mux(io.frameHeight - 1.U < step.U, io.frameHeight - 1.U, step.U) // cell row 0: min(step, H - 1)
       gen.h := firstRowH
@@ -345,6 +368,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       aValid := true.B
       a := gen
       aFirst := gen.u === 0.U
+      aShift := cellAt(gen.cu + (K - 1).U, gen.shiftX0)
       aAddr := wp - D.U
       gen := advance(gen, genBelow, genHCur, genHNext)
       when(frameEnd(gen)) { genActive := false.B }
@@ -363,6 +387,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   // ---------------------------------------------------------------- primer: the next row's first K-1 cells
   val pRow = Reg(new Pos) // only v, cr, vIn, fp are used
   val pJ = RegInit(0.U(cellW.W))
+  val pX0 = RegInit(0.U((colW + 2).W)) // pJ * step
+  val pY0 = RegInit(0.U((rowW + 2).W)) // pRow.cr * step
   val pWaitFrame = RegInit(true.B)
   val pActive = RegInit(false.B)
   val pIssued = RegInit(false.B) // all K-1 cells of the next row issued; cleared with the last write
@@ -372,11 +398,13 @@ class DenseMatcher(p: ElasParams) extends Module {
     sofPending := false.B
     pRow := 0.U.asTypeOf(new Pos)
     pRow.fp := inFp
+    pY0 := 0.U
     pJ := 0.U
+    pX0 := 0.U
   }
   val (pHit, pSel) = bankOf(planeFull, planeTag, pRow.fp, pRow.cr)
   val pCorners = readBank(cornerBanks, pSel, pJ, cellsMax)
-  val (pH, pUp, pDown) = rowGeometry(pRow.cr, pRow.vIn)
+  val (pH, pUp, pDown) = rowGeometry(pY0, pRow.vIn)
   // two register steps per cell: the issue reads the corners into p1 (cuts), the next cycle writes the span
   val p1Valid = RegInit(false.B)
   val p1J = Reg(UInt(cellW.W))
@@ -387,19 +415,23 @@ class DenseMatcher(p: ElasParams) extends Module {
   when(pActive && !shadowFull && !pIssued && pHit) {
     p1Valid := true.B
     p1J := pJ
-    p1Cuts := cellCuts(pJ, pJ <= lastCell, pCorners)
+    p1Cuts := cellCuts(cellAt(pJ, pX0), pCorners)
     p1Up := pUp
     p1Down := pDown
     pJ := pJ + 1.U
+    pX0 := pX0 + step.U
     when(pJ === (K - 2).U) {
       pIssued := true.B
       pJ := 0.U
+      pX0 := 0.U
       when(pRow.v === height - 1.U) {
         pActive := false.B
         pWaitFrame := true.B
       }.otherwise {
         pRow.v := pRow.v + 1.U
-        when(pRow.vIn === (step - 1).U && pRow.cr < lastCellRow) { pRow.cr := pRow.cr + 1.U; pRow.vIn := 0.U }
+        when(pRow.vIn === (step - 1).U && pRow.cr < lastCellRow) {
+          pRow.cr := pRow.cr + 1.U; pRow.vIn := 0.U; pY0 := pY0 + step.U
+        }
           .otherwise { pRow.vIn := pRow.vIn + 1.U }
       }
     }
@@ -429,9 +461,10 @@ class DenseMatcher(p: ElasParams) extends Module {
   // next window: shift by one cell when the next pixel enters the next cell. The entering cell's cuts are read at
   // the pixel before (every pixel that fires registers those of its own cu + K - 1): a shift happens at a cell's
   // last pixel (uIn = step - 1 >= 1), so the pixel before it is in the same cell and row.
-  val shiftCell = a.cu + (K - 1).U
+  // (aShift, the entering cell cu + K - 1 and its columns, is registered with a: the corner read's address and the
+  // offsets' columns come from registers)
   val shiftCuts = Reg(new Cuts)
-  when(aFire) { shiftCuts := cellCuts(shiftCell, shiftCell <= lastCell, readBank(cornerBanks, planeSel, shiftCell, cellsMax)) }
+  when(aFire) { shiftCuts := cellCuts(aShift, readBank(cornerBanks, planeSel, aShift.cc, cellsMax)) }
   val shiftSpan = spanOf(shiftCuts, aUp, aDown)
   when(aFire && !rowEnd(a)) {
     when(nextCellCol(a)) {
@@ -501,7 +534,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   // with g = x1 (h - vIn) + x0 vIn, and no higher-indexed cell reaches u (its e is above u h; h >= 1 in every row), so
   // the owner is (cu, t = 1) when u h >= g, else (cu, 0): the highest-indexed covering triangle of the general rule.
   // With u = x0 + uIn and w1 = x1 - x0, u h >= g is uIn h >= w1 (h - vIn): two products of step-sized numbers.
-  val lastCellWidth = RegNext(Mux(width - 1.U - lastCell * step.U < step.U, width - 1.U - lastCell * step.U, step.U))
+  val lastCellX0 = RegNext(lastCell * step.U)
+  val lastCellWidth = RegNext(Mux(width - 1.U - lastCellX0 < step.U, width - 1.U - lastCellX0, step.U))
   class StageA1 extends Bundle {
     val px = new Pixel
     val cu = UInt(cellW.W)
