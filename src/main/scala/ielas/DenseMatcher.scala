@@ -53,11 +53,12 @@ import chisel3.util._
   * rows. Frames may follow each other back to back in all three streams; row banks are tagged with a frame parity
   * so the next frame's rows can load while the current frame ends.
   *
-  * Pipeline (lockstep, stalls as a whole): A (window shift, cover tests, grid read) -> A1..A3 (owner) -> B -> B1 (texture SAD in quarters,
-  * plane offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi, candidates, ring reads; one
-  * cycle per candidate group) -> D (ring data) -> D2 (four quarter-descriptor SADs per lane) -> E (cost with the prior) -> F -> the first-minimum tree, two compare
-  * levels per register ([[DenseMatcher.treeRegisters]]) -> output register. Each register step is a few LUTs deep
-  * (docs/timing.md).
+  * Pipeline (lockstep, stalls as a whole): A (window shift, cover tests, grid read) -> A1..A3 (owner) -> B -> B1
+  * (texture SAD in quarters, plane offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi,
+  * candidates, ring reads; one cycle per candidate group) -> D (ring read) -> D2, D3 (the ring data, registered
+  * twice: a block RAM takes D2 as its read register) -> E (four quarter-descriptor SADs per lane) -> F (cost with the
+  * prior) -> the first-minimum tree ([[DenseMatcher.treeRegisters]] register levels) -> output register. Each
+  * register step is a few LUTs deep (docs/timing.md).
   */
 class DenseMatcher(p: ElasParams) extends Module {
   private val D = p.dispMax
@@ -852,14 +853,22 @@ class DenseMatcher(p: ElasParams) extends Module {
   val eValid = RegInit(false.B)
   val eTail = Reg(new Tail)
   val eSad = Reg(Vec(2, Vec(lanes, new Sad)))
-  // D -> D2: the ring data registered before the SAD (a LUT-RAM ring reads combinationally from its address register)
+  // D -> D2 -> D3: the ring data registered twice before the SAD. A LUT-RAM ring reads combinationally from its
+  // address register; Yosys takes a block-RAM ring's first data register (D2) into the block as its read register,
+  // whose clock-to-out (4.1 ns on the ECP5) then started the SAD's path, so D3 is the fabric register the SAD reads.
   val d2Valid = RegInit(false.B)
   val d2 = Reg(new StageD)
   val d2Targets = Reg(Vec(2, Vec(lanes, UInt(descBits.W))))
+  val d3Valid = RegInit(false.B)
+  val d3 = Reg(new StageD)
+  val d3Targets = Reg(Vec(2, Vec(lanes, UInt(descBits.W))))
   when(adv) {
     d2Valid := dValid
     d2 := dReg
     for (view <- 0 until 2; k <- 0 until lanes) d2Targets(view)(k) := targets(view)(k)
+    d3Valid := d2Valid
+    d3 := d2
+    d3Targets := d2Targets
   }
   // Each lane's SAD as four quarter-descriptor SADs (a 16- or 8-byte adder tree maps to 7 LUT levels), summed with
   // the prior in E -> F.
@@ -870,12 +879,12 @@ class DenseMatcher(p: ElasParams) extends Module {
     u.io.y := y(8 * hi - 1, 8 * lo)
     u.io.sad
   }
-  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => partSads(d2.refs(view), d2Targets(view)(k))))
+  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => partSads(d3.refs(view), d3Targets(view)(k))))
   when(adv) {
-    eValid := d2Valid
-    eTail := tailOf(d2)
+    eValid := d3Valid
+    eTail := tailOf(d3)
     for (view <- 0 until 2; k <- 0 until lanes) {
-      val x = d2.cand(view)(k)
+      val x = d3.cand(view)(k)
       eSad(view)(k).valid := x.valid
       eSad(view)(k).d := x.d
       eSad(view)(k).prior := x.prior
