@@ -34,8 +34,9 @@ DEVICE = {"family": "ECP5", "part": "LFE5U-85F", "package": "CABGA381", "speed":
           "nextpnr_args": ["--85k", "--package", "CABGA381", "--speed", "8"]}
 SEED = 1
 # nextpnr's default router (router1) thrashes on a congested device: on SupportMatcher (82 % of TRELLIS_COMB) it
-# had routed nothing for good after 12 min. A module mapped to at least this many LUT4 is routed with router2.
-ROUTER2_MIN_LUT4 = 20000
+# had routed nothing for good after 12 min, on PostProcessSpeckle (10.6k LUT4, 864 LUT-RAM blocks) it slowed to
+# minutes per thousand arcs after 20 min. A module mapped to at least this many LUT4 is routed with router2.
+ROUTER2_MIN_LUT4 = 10000
 XC7_DEVICE = "Xilinx 7-series (synth_xilinx -family xc7), cell delays from Yosys' xilinx/cells_sim.v specify blocks"
 
 
