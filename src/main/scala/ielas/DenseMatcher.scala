@@ -406,7 +406,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   val (pHit, pSel) = bankOf(planeFull, planeTag, pRow.fp, pRow.cr)
   val pCorners = readBank(cornerBanks, pSel, pJ, cellsMax)
   val (pH, pUp, pDown) = rowGeometry(pY0, pRow.vIn)
-  // two register steps per cell: the issue reads the corners into p1 (cuts), the next cycle writes the span
+  // three register steps per cell: the issue reads the corners into p1 (cuts), p2 takes the span (the products, a
+  // DSP on the ECP5, and the order compare), and the next cycle writes it into the shadow
   val p1Valid = RegInit(false.B)
   val p1J = Reg(UInt(cellW.W))
   val p1Cuts = Reg(new Cuts)
@@ -437,11 +438,13 @@ class DenseMatcher(p: ElasParams) extends Module {
       }
     }
   }
-  when(p1Valid) {
-    val pSpan = spanOf(p1Cuts, p1Up, p1Down)
+  val p2Valid = RegNext(p1Valid, false.B)
+  val p2J = RegNext(p1J)
+  val p2Span = RegNext(spanOf(p1Cuts, p1Up, p1Down))
+  when(p2Valid) {
     shadow(0) := noSpan
-    for (j <- 1 until K) when(p1J === (j - 1).U) { shadow(j) := pSpan }
-    when(p1J === (K - 2).U) {
+    for (j <- 1 until K) when(p2J === (j - 1).U) { shadow(j) := p2Span }
+    when(p2J === (K - 2).U) {
       shadowFull := true.B
       pIssued := false.B
     }
@@ -466,7 +469,12 @@ class DenseMatcher(p: ElasParams) extends Module {
   // offsets' columns come from registers)
   val shiftCuts = Reg(new Cuts)
   when(aFire) { shiftCuts := cellCuts(aShift, readBank(cornerBanks, planeSel, aShift.cc, cellsMax)) }
-  val shiftSpan = spanOf(shiftCuts, aUp, aDown)
+  // With candidateStep >= 3 the span (products and order) gets a register of its own, formed every clock from
+  // shiftCuts and the row offsets of the pixel in stage A. At the shift of pixel s (uIn >= 2, u >= 2) that register
+  // holds the span of the clock before, whose cuts were loaded by s - 1 or, when s - 1 left in that very clock, by
+  // s - 2: both lie in s's cell and row, as does the pixel in A then (s - 1 or s). At step 2 the products stay in
+  // the shift's clock.
+  val shiftSpan = if (step >= 3) RegNext(spanOf(shiftCuts, aUp, aDown)) else spanOf(shiftCuts, aUp, aDown)
   when(aFire && !rowEnd(a)) {
     when(nextCellCol(a)) {
       for (j <- 0 until K - 1) window(j) := win(j + 1)
