@@ -35,8 +35,9 @@ import chisel3.util._
   *   R valid flags 2 x W bits (registers)
   *   row above    2^(colBits + 1) x (dispBits + 1 + idW) (A's last pixels again, >= 2 rows)
   * A is a pipeline of five steps, so that no step follows a chain of lookups (each about 6 LUT levels):
-  *  - T takes the input beat into registers; ready depends on registers only, not on the beat.
-  *  - A0: the left connection, the run's node id and node count (a recurrence on the input alone), the delay line
+  *  - T takes the input beat into registers and decides whether it joins the left pixel's run; ready depends on
+  *    registers only, not on the beat.
+  *  - A0: the run's node id and node count (a recurrence on the input alone), the delay line
   *    and row-above writes, the up pixel's connection; K_{k-1}[up node] is read.
   *  - AK: the flat class cls = K_{k-1}[up node] (0 for node 0, B2's result when B2 computes that node this cycle);
   *    R_k[cls] and S_{k-1}[cls] are read.
@@ -94,7 +95,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   })
 
   private def satAdd(a: UInt, b: UInt): UInt = { val s = a +& b; Mux(s >= cap.U, cap.U, s)(sW - 1, 0) }
-  private def similar(a: SInt, b: SInt): Bool = (a - b).abs.asUInt <= T.U
+  /** |a - b| <= T for a, b >= 0 (the only values it decides on), as two compares side by side: no absolute value
+    * (a negation) after the subtraction. */
+  private def similar(a: SInt, b: SInt): Bool = (a -& b) <= T.S && (b -& a) <= T.S
 
   // ---- per-row metadata ring, indexed by row sequence mod ND ----
   // Written by A0 (N at the row's last pixel, the rest at its first) or at the virtual row's start; B, C and D read
@@ -287,6 +290,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   class A0Beat extends Bundle {
     val sl = new ASlots
     val v = SInt(vW.W); val left = SInt(vW.W)
+    val newRun = Bool() // v >= 0 and not joined to the left pixel's run (decided in T, off A0's node count path)
     val rowStart = Bool(); val lastCol = Bool()
     val row = UInt(p.rowBits.W); val hasUp = Bool(); val col = UInt(p.colBits.W); val pos = UInt((p.colBits + 1).W)
   }
@@ -360,6 +364,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   inA0v := take
   inA0.sl.d := aD.cur; inA0.sl.r := a2.cur; inA0.sl.s := a3.cur; inA0.sl.sPrev := a3.prev
   inA0.v := io.in.bits.data; inA0.left := leftVal; inA0.rowStart := rowStartNow; inA0.lastCol := lastCol
+  inA0.newRun := io.in.bits.data >= 0.S &&
+    !(!rowStartNow && leftVal >= 0.S && similar(io.in.bits.data, leftVal))
   inA0.row := aRow; inA0.hasUp := aRow =/= 0.U; inA0.col := col; inA0.pos := upPos
   when(take) {
     when(rowStartNow) { aBusy := true.B }
@@ -393,8 +399,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val cnt = Reg(UInt((idW + 1).W)) // nodes allocated in this row
   val runId = Reg(UInt(idW.W))
   val a0Valid = inA0.v >= 0.S
-  val connectL = a0Valid && !inA0.rowStart && inA0.left >= 0.S && similar(inA0.v, inA0.left)
-  val newRun = a0Valid && !connectL
+  val newRun = inA0.newRun // a0Valid && !(the pixel joins the left pixel's run)
   val cntBase = Mux(inA0.rowStart, 0.U, cnt)
   val nodeNow = cntBase(idW - 1, 0)
   val thisRun = Mux(newRun, nodeNow, runId)
