@@ -35,9 +35,10 @@ import chisel3.util._
   * holds all candidates; the owner is the highest-indexed covering triangle, and an uncovered pixel takes the
   * carried owner of the nearest covered pixel to its left (a row whose pixel 0 is uncovered has no covered pixel at
   * all and takes the cell row's last triangle). A primer computes the first K-1 cells of the next row into shadow
-  * registers while the current row runs (one cell per clock, in two register steps: corner read and subtractions,
-  * then products and order), so row starts cost no cycles; the cell a shift brings in is read at the pixel before
-  * the shift, so the window shift too has only the products between registers.
+  * registers while the current row runs (one cell per clock, in register steps: corner read and subtractions, then
+  * products and order, then the shadow write), so row starts cost no cycles; the cell a shift brings in is read at
+  * the pixel before the shift and its span formed a clock ahead (candidateStep >= 3; at 2 the products are in the
+  * shift's clock), so the window shift only copies registers.
   *   raster registers = 2 (window + shadow) x K x (1 + 4 spanBits)   (right view only)   (K = 9 at small, 53 at kitti)
   *
   * '''Row banks''' (memories, combinational read ports; written by the loaders, tagged with frame parity and row):
