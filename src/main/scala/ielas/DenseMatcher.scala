@@ -21,8 +21,9 @@ import chisel3.util._
   * the stream (position n), and one more ring holds both views' references. Both views are evaluated at the same
   * pixel P = n - dispMax so that the right view's targets (columns u + d) have arrived. One [[DescriptorSad]] per
   * lane; the first minimum over the lanes in candidate order (grid lanes, then the plane range) is the algorithm's
-  * selection. Read addresses follow the pipeline registers ([[DenseMatcher.stageRead]]), so a stalled stage repeats
-  * its read instead of holding 128-bit data. docs/architecture.md ("Fitting the device") gives the alternatives
+  * selection. The target rings are read every clock at stage C's addresses (the back half never stalls); the
+  * reference ring's read follows the pixel generator ([[DenseMatcher.stageRead]]), so a stall repeats that read
+  * instead of holding 128-bit data. docs/architecture.md ("Fitting the device") gives the alternatives
   * measured.
   * Entries that fall into another row (or the flush after a frame) are never selected: a candidate is skipped
   * unless m <= t <= W-1-m, which keeps t in P's row. After the last beat of a frame the stage inserts dispMax flush
@@ -54,12 +55,12 @@ import chisel3.util._
   * rows. Frames may follow each other back to back in all three streams; row banks are tagged with a frame parity
   * so the next frame's rows can load while the current frame ends.
   *
-  * Pipeline (lockstep, stalls as a whole): A (window shift, cover tests, grid read) -> A1..A3 (owner) -> B -> B1
-  * (texture SAD in quarters, plane offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi,
-  * candidates, ring reads; one cycle per candidate group) -> D (ring read) -> D2, D3 (the ring data, registered
+  * Pipeline: A (window shift, cover tests, grid read) -> A1..A3 (owner) -> B -> B1 (texture SAD in quarters, plane
+  * offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi, candidates, ring reads; one cycle per
+  * candidate group), stalling as a whole; then, never stalling, D (ring read) -> D2, D3 (the ring data, registered
   * twice: a block RAM takes D2 as its read register) -> E (four quarter-descriptor SADs per lane) -> F (cost with the
-  * prior) -> the first-minimum tree ([[DenseMatcher.treeRegisters]] register levels) -> output register. Each
-  * register step is a few LUTs deep (docs/timing.md).
+  * prior) -> the first-minimum tree ([[DenseMatcher.treeRegisters]] register levels) -> an output queue with a slot
+  * for every pixel in flight behind C (credit counted). Each register step is a few LUTs deep (docs/timing.md).
   */
 class DenseMatcher(p: ElasParams) extends Module {
   private val D = p.dispMax
@@ -296,7 +297,14 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
 
   // ---------------------------------------------------------------- pipeline control
-  val output = new OutputRegister(io.out)
+  // Stages A..C stall as a whole (`adv`); stages D..F, the minimum tree and the output queue never stall. Stage C
+  // issues a pixel's candidates only while it holds a credit, a free slot of the output queue for every pixel in
+  // flight behind it, so the wide back half (ring data, SADs, tree) needs no enable: its fan-out and the handshake
+  // in front of it were the critical path (docs/architecture.md).
+  private val outDepth = DenseMatcher.backStages(p) + 2 // a credit comes back two cycles after the pixel's enqueue
+  val outQueue = Module(new Queue(new Framed(new DisparityPair(p)), outDepth))
+  io.out <> outQueue.io.deq
+  val credits = RegInit(outDepth.U(log2Ceil(outDepth + 1).W))
 
   val aValid = RegInit(false.B)
   val aFirst = RegInit(false.B) // a.u = 0, registered with a (it selects the raster window: keep it off the compare)
@@ -306,8 +314,12 @@ class DenseMatcher(p: ElasParams) extends Module {
   val shadowFull = RegInit(false.B)
   val (gridHit, gridSel) = bankOf(gridFull, gridTag, a.fp, a.gy)
   val (planeHit, planeSel) = bankOf(planeFull, planeTag, a.fp, a.cr)
-  val aReady = a.u =/= 0.U || (shadowFull && gridHit)
-  val adv = output.free && (!aValid || aReady) // the candidate groups (stages C..E) move
+  // a's grid row is loaded, registered: formed from the pixel entering A, then from a itself while it waits. A row
+  // that completes in that clock shows a clock late (a wait of one cycle); a bank is released only by its row's last
+  // pixel leaving A, and the pixel entering then needs another row or frame, so the register is never true too long.
+  val aGridHit = RegNext(gridHit, false.B)
+  val aReady = !aFirst || (shadowFull && aGridHit) // only a row's first pixel waits (for its primer and grid row)
+  val adv = credits =/= 0.U && (!aValid || aReady) // stages A..C move (C issues a candidate group)
   val cValid = RegInit(false.B)
   val group = RegInit(0.U(math.max(1, log2Ceil(groups)).W)) // candidate group stage C issues this cycle
   val cLast = group === (groups - 1).U
@@ -370,6 +382,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       aValid := true.B
       a := gen
       aFirst := gen.u === 0.U
+      aGridHit := bankOf(gridFull, gridTag, gen.fp, gen.gy)._1
       aShift := cellAt(gen.cu + (K - 1).U, gen.shiftX0)
       aAddr := wp - D.U
       gen := advance(gen, genBelow, genHCur, genHNext)
@@ -813,26 +826,25 @@ class DenseMatcher(p: ElasParams) extends Module {
     (0 until lanes).map { k =>
       val d = candC(view)(k).d
       val addr = if (view == 0) c.addr - d else c.addr + d
-      DenseMatcher.stageRead(if (view == 0) ringR(k) else ringL(k), addr, adv)
+      (if (view == 0) ringR(k) else ringL(k)).read(addr) // every clock: D keeps it only when C issues
     }
   }
-  val dValid = RegInit(false.B)
+  val issue = adv && cValid // C issues a candidate group into the back half this clock
+  val dValid = RegNext(issue, false.B)
   val dReg = Reg(new StageD)
-  when(adv && cValid) { group := Mux(cLast, 0.U, group + 1.U) }
-  when(adv) {
-    dValid := cValid
-    dReg.refs := c.refs
-    dReg.live := c.live
-    for (view <- 0 until 2; k <- 0 until lanes) dReg.cand(view)(k) := candC(view)(k)
-    dReg.first := group === 0.U
-    dReg.last := cLast
-    dReg.sof := c.sof
-    dReg.eol := c.eol
-    dReg.eof := c.eof
-  }
+  when(issue) { group := Mux(cLast, 0.U, group + 1.U) }
+  credits := credits - (issue && cLast).asUInt + outQueue.io.deq.fire.asUInt
+  dReg.refs := c.refs
+  dReg.live := c.live
+  for (view <- 0 until 2; k <- 0 until lanes) dReg.cand(view)(k) := candC(view)(k)
+  dReg.first := group === 0.U
+  dReg.last := cLast
+  dReg.sof := c.sof
+  dReg.eol := c.eol
+  dReg.eof := c.eof
 
   // ---------------------------------------------------------------- stage D: one SAD per candidate lane
-  // Stages D..F and the minimum tree move together on `adv`; each register level keeps its logic within a few LUTs:
+  // Stages D..F and the minimum tree move every clock (valid bits mark the issued groups); each register level keeps its logic within a few LUTs:
   // D -> E the SAD (target ring read, 16 byte differences, adder tree), E -> F cost = SAD + prior, then the first
   // minimum over the lanes, two pairwise levels per register, and the running minimum over the groups at the end.
   class Scored extends Bundle {
@@ -871,14 +883,12 @@ class DenseMatcher(p: ElasParams) extends Module {
   val d3Valid = RegInit(false.B)
   val d3 = Reg(new StageD)
   val d3Targets = Reg(Vec(2, Vec(lanes, UInt(descBits.W))))
-  when(adv) {
-    d2Valid := dValid
-    d2 := dReg
-    for (view <- 0 until 2; k <- 0 until lanes) d2Targets(view)(k) := targets(view)(k)
-    d3Valid := d2Valid
-    d3 := d2
-    d3Targets := d2Targets
-  }
+  d2Valid := dValid
+  d2 := dReg
+  for (view <- 0 until 2; k <- 0 until lanes) d2Targets(view)(k) := targets(view)(k)
+  d3Valid := d2Valid
+  d3 := d2
+  d3Targets := d2Targets
   // Each lane's SAD as four quarter-descriptor SADs (a 16- or 8-byte adder tree maps to 7 LUT levels), summed with
   // the prior in E -> F.
   def partSads(x: UInt, y: UInt): Seq[UInt] = (0 until sadParts).map { part =>
@@ -889,29 +899,25 @@ class DenseMatcher(p: ElasParams) extends Module {
     u.io.sad
   }
   val laneSad = (0 until 2).map(view => (0 until lanes).map(k => partSads(d3.refs(view), d3Targets(view)(k))))
-  when(adv) {
-    eValid := d3Valid
-    eTail := tailOf(d3)
-    for (view <- 0 until 2; k <- 0 until lanes) {
-      val x = d3.cand(view)(k)
-      eSad(view)(k).valid := x.valid
-      eSad(view)(k).d := x.d
-      eSad(view)(k).prior := x.prior
-      for (h <- 0 until sadParts) eSad(view)(k).parts(h) := laneSad(view)(k)(h)
-    }
+  eValid := d3Valid
+  eTail := tailOf(d3)
+  for (view <- 0 until 2; k <- 0 until lanes) {
+    val x = d3.cand(view)(k)
+    eSad(view)(k).valid := x.valid
+    eSad(view)(k).d := x.d
+    eSad(view)(k).prior := x.prior
+    for (h <- 0 until sadParts) eSad(view)(k).parts(h) := laneSad(view)(k)(h)
   }
   val fValid = RegInit(false.B)
   val fTail = Reg(new Tail)
   val fCand = Reg(Vec(2, Vec(lanes, new Scored)))
-  when(adv) {
-    fValid := eValid
-    fTail := eTail
-    for (view <- 0 until 2; k <- 0 until lanes) {
-      val x = eSad(view)(k)
-      fCand(view)(k).valid := x.valid
-      fCand(view)(k).d := x.d
-      fCand(view)(k).cost := x.parts.reduceTree(_ +& _)(DescriptorSad.bits(p.descriptorBytes) - 1, 0).zext + x.prior
-    }
+  fValid := eValid
+  fTail := eTail
+  for (view <- 0 until 2; k <- 0 until lanes) {
+    val x = eSad(view)(k)
+    fCand(view)(k).valid := x.valid
+    fCand(view)(k).d := x.d
+    fCand(view)(k).cost := x.parts.reduceTree(_ +& _)(DescriptorSad.bits(p.descriptorBytes) - 1, 0).zext + x.prior
   }
 
   // ---------------------------------------------------------------- the first minimum
@@ -934,29 +940,27 @@ class DenseMatcher(p: ElasParams) extends Module {
     val v = RegInit(false.B)
     val t = Reg(new Tail)
     val r = Reg(Vec(2, Vec(reduced.head.length, new Scored)))
-    when(adv) {
-      v := treeValid
-      t := treeTail
-      for (view <- 0 until 2; k <- reduced.head.indices) r(view)(k) := reduced(view)(k)
-    }
+    v := treeValid
+    t := treeTail
+    for (view <- 0 until 2; k <- reduced.head.indices) r(view)(k) := reduced(view)(k)
     treeValid = v; treeTail = t; tree = r.map(_.toSeq)
   }
   val bestSoFar = Reg(Vec(2, new Scored)) // over the pixel's earlier candidate groups
   val result = (0 until 2).map { view =>
     val groupBest = firstMin(tree(view))
     val best = if (groups == 1) groupBest else Mux(treeTail.first, groupBest, firstOf(bestSoFar(view), groupBest))
-    when(adv && treeValid) { bestSoFar(view) := best }
+    when(treeValid) { bestSoFar(view) := best }
     Mux(treeTail.live(view) && best.valid, best.d.zext, (-1).S(dispW.W))
   }
 
-  when(adv && treeValid && treeTail.last) {
-    output.valid := true.B
-    output.bits.data.left := result(0)
-    output.bits.data.right := result(1)
-    output.bits.sof := treeTail.sof
-    output.bits.eol := treeTail.eol
-    output.bits.eof := treeTail.eof
-  }
+  // the credits guarantee the queue's room (enq.ready is true whenever a result arrives)
+  assert(!outQueue.io.enq.valid || outQueue.io.enq.ready, "dense output queue overflow (credit count)")
+  outQueue.io.enq.valid := treeValid && treeTail.last
+  outQueue.io.enq.bits.data.left := result(0)
+  outQueue.io.enq.bits.data.right := result(1)
+  outQueue.io.enq.bits.sof := treeTail.sof
+  outQueue.io.enq.bits.eol := treeTail.eol
+  outQueue.io.enq.bits.eof := treeTail.eof
 }
 
 object DenseMatcher {
@@ -981,6 +985,9 @@ object DenseMatcher {
   def treeArity(p: ElasParams): Int = if (p.denseGroups == 1) 4 else 2
 
   /** Registered levels of the first-minimum tree: each reduces blocks of treeArity lanes until treeKeep are left. */
+  /** Register steps from stage C's issue to the output queue's write: D, D2, D3, E, F and the tree's levels. */
+  def backStages(p: ElasParams): Int = 5 + treeRegisters(p)
+
   def treeRegisters(p: ElasParams): Int = Iterator.iterate(p.denseLanesUsed)(n => (n + treeArity(p) - 1) / treeArity(p))
     .takeWhile(_ > treeKeep(p)).length
 
