@@ -302,7 +302,9 @@ class DenseMatcher(p: ElasParams) extends Module {
   // flight behind it, so the wide back half (ring data, SADs, tree) needs no enable: its fan-out and the handshake
   // in front of it were the critical path (docs/architecture.md).
   private val outDepth = DenseMatcher.backStages(p) + 2 // a credit comes back two cycles after the pixel's enqueue
-  val outQueue = Module(new Queue(new Framed(new DisparityPair(p)), outDepth))
+  val outQueue = Module(new Queue(new Framed(new DisparityPair(p)), outDepth) {
+    override def desiredName = "DenseOutputQueue" // one per design: the same module name in every top's Verilog
+  })
   io.out <> outQueue.io.deq
   val credits = RegInit(outDepth.U(log2Ceil(outDepth + 1).W))
 

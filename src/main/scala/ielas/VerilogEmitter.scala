@@ -20,8 +20,14 @@ object VerilogEmitter {
     _root_.circt.stage.ChiselStage.emitSystemVerilog(gen, Array.empty[String], firtoolOptions ++ Array("-o", dir.toString))
   }
 
-  /** The IElas top (and with `axi` the [[IElasAxi]] wrapper beside it) into `dir`. */
+  /** The IElas top (and with `axi` the [[IElasAxi]] wrapper beside it) into `dir`. The .sv files already in `dir`
+    * are removed first: a module an earlier version emitted (or named differently) would otherwise stay beside the
+    * new ones and reach lint, synthesis and the wrapper's comparison below.
+    */
   def emitTop(p: ElasParams, dir: Path, axi: Boolean = false): Unit = {
+    import scala.jdk.CollectionConverters._
+    if (Files.isDirectory(dir))
+      Files.list(dir).iterator().asScala.filter(_.toString.endsWith(".sv")).toSeq.foreach(Files.delete)
     emit(new IElas(p), dir)
     // Verilator -Wall waivers for firtool's output, one reason each (docs/interfaces.md §5, docs/toolchain.md).
     val waivers = Seq(
