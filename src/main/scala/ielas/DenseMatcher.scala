@@ -36,10 +36,10 @@ import chisel3.util._
   * holds all candidates; the owner is the highest-indexed covering triangle, and an uncovered pixel takes the
   * carried owner of the nearest covered pixel to its left (a row whose pixel 0 is uncovered has no covered pixel at
   * all and takes the cell row's last triangle). A primer computes the first K-1 cells of the next row into shadow
-  * registers while the current row runs (one cell per clock, in register steps: corner read and subtractions, then
-  * products and order, then the shadow write), so row starts cost no cycles; the cell a shift brings in is read at
-  * the pixel before the shift and its span formed a clock ahead (candidateStep >= 3; at 2 the products are in the
-  * shift's clock), so the window shift only copies registers.
+  * registers while the current row runs (one cell per clock, in register steps: corner read and subtractions,
+  * products, sums and order, the shadow write), so row starts cost no cycles; the cell a shift brings in is read at
+  * the pixel before the shift and its span formed two clocks ahead (products, then sums and order; one clock at
+  * candidateStep 3, none at 2), so the window shift only copies registers.
   *   raster registers = 2 (window + shadow) x K x (1 + 4 spanBits)   (right view only)   (K = 9 at small, 53 at kitti)
   *
   * '''Row banks''' (memories, combinational read ports; written by the loaders, tagged with frame parity and row):
@@ -219,19 +219,37 @@ class DenseMatcher(p: ElasParams) extends Module {
     c.br := at.x1.zext - corners(3).zext
     c
   }
-  /** The second step: e, g, f of row offset (up, down) and each triangle's ordered interval. */
-  def spanOf(c: Cuts, up: UInt, down: UInt): Span = {
+  /** The second step: the cuts' products with the row offsets (up, down), a multiplier each on the ECP5. */
+  class Products extends Bundle {
+    val valid = Bool()
+    val tlUp = SInt(spanW.W)
+    val trUp = SInt(spanW.W)
+    val blDown = SInt(spanW.W)
+    val brDown = SInt(spanW.W)
+  }
+  def productsOf(c: Cuts, up: UInt, down: UInt): Products = {
+    val r = Wire(new Products)
+    r.valid := c.valid
+    r.tlUp := c.tl * up.zext
+    r.trUp := c.tr * up.zext
+    r.blDown := c.bl * down.zext
+    r.brDown := c.br * down.zext
+    r
+  }
+  /** The third step: e, g, f and each triangle's ordered interval (sums, then compares). */
+  def spanOfProducts(q: Products): Span = {
     val s = Wire(new Span)
-    s.valid := c.valid
-    val e = c.tl * up.zext + c.bl * down.zext
-    val g = c.tr * up.zext + c.bl * down.zext
-    val f = c.tr * up.zext + c.br * down.zext
+    s.valid := q.valid
+    val e = q.tlUp + q.blDown
+    val g = q.trUp + q.blDown
+    val f = q.trUp + q.brDown
     for ((t, (x, y)) <- Seq(0 -> (e, g), 1 -> (g, f))) {
       s.lo(t) := Mux(x < y, x, y)
       s.hi(t) := Mux(x < y, y, x)
     }
     s
   }
+  def spanOf(c: Cuts, up: UInt, down: UInt): Span = spanOfProducts(productsOf(c, up, down))
   def noSpan: Span = { val s = Wire(new Span); s := 0.U.asTypeOf(new Span); s }
 
   // ---------------------------------------------------------------- pixel positions
@@ -422,8 +440,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   val (pHit, pSel) = bankOf(planeFull, planeTag, pRow.fp, pRow.cr)
   val pCorners = readBank(cornerBanks, pSel, pJ, cellsMax)
   val (pH, pUp, pDown) = rowGeometry(pY0, pRow.vIn)
-  // three register steps per cell: the issue reads the corners into p1 (cuts), p2 takes the span (the products, a
-  // DSP on the ECP5, and the order compare), and the next cycle writes it into the shadow
+  // four register steps per cell: the issue reads the corners into p1 (cuts), p2 takes the products (a multiplier
+  // each on the ECP5), p3 the span (sums and order compares), and the next cycle writes it into the shadow
   val p1Valid = RegInit(false.B)
   val p1J = Reg(UInt(cellW.W))
   val p1Cuts = Reg(new Cuts)
@@ -456,11 +474,14 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
   val p2Valid = RegNext(p1Valid, false.B)
   val p2J = RegNext(p1J)
-  val p2Span = RegNext(spanOf(p1Cuts, p1Up, p1Down))
-  when(p2Valid) {
+  val p2Products = RegNext(productsOf(p1Cuts, p1Up, p1Down))
+  val p3Valid = RegNext(p2Valid, false.B)
+  val p3J = RegNext(p2J)
+  val p3Span = RegNext(spanOfProducts(p2Products))
+  when(p3Valid) {
     shadow(0) := noSpan
-    for (j <- 1 until K) when(p2J === (j - 1).U) { shadow(j) := p2Span }
-    when(p2J === (K - 2).U) {
+    for (j <- 1 until K) when(p3J === (j - 1).U) { shadow(j) := p3Span }
+    when(p3J === (K - 2).U) {
       shadowFull := true.B
       pIssued := false.B
     }
@@ -485,12 +506,16 @@ class DenseMatcher(p: ElasParams) extends Module {
   // offsets' columns come from registers)
   val shiftCuts = Reg(new Cuts)
   when(aFire) { shiftCuts := cellCuts(aShift, readBank(cornerBanks, planeSel, aShift.cc, cellsMax)) }
-  // With candidateStep >= 3 the span (products and order) gets a register of its own, formed every clock from
-  // shiftCuts and the row offsets of the pixel in stage A. At the shift of pixel s (uIn >= 2, u >= 2) that register
-  // holds the span of the clock before, whose cuts were loaded by s - 1 or, when s - 1 left in that very clock, by
-  // s - 2: both lie in s's cell and row, as does the pixel in A then (s - 1 or s). At step 2 the products stay in
-  // the shift's clock.
-  val shiftSpan = if (step >= 3) RegNext(spanOf(shiftCuts, aUp, aDown)) else spanOf(shiftCuts, aUp, aDown)
+  // The span is formed every clock from shiftCuts and the row offsets of the pixel in stage A, in register steps of
+  // its own: with candidateStep >= 4 two (the products, then sums and order), with 3 one, with 2 none. At the shift
+  // of pixel s (uIn = step - 1, so u >= step - 1) a span n steps deep was formed from the shiftCuts and stage A of n
+  // clocks before. shiftCuts then holds the cuts loaded by one of s - n - 1 .. s - 1 (at most n + 1 pixels leave A in
+  // n + 1 clocks; it is loaded by every pixel that leaves) and A holds one of s - n .. s; with n <= step - 2 all of
+  // them lie in s's cell and row.
+  val shiftSpan =
+    if (step >= 4) RegNext(spanOfProducts(RegNext(productsOf(shiftCuts, aUp, aDown))))
+    else if (step == 3) RegNext(spanOf(shiftCuts, aUp, aDown))
+    else spanOf(shiftCuts, aUp, aDown)
   when(aFire && !rowEnd(a)) {
     when(nextCellCol(a)) {
       for (j <- 0 until K - 1) window(j) := win(j + 1)
@@ -1021,7 +1046,7 @@ object DenseMatcher {
     * and primer (K - 1 cells and its register step) when they have not arrived during the first dispMax steps.
     */
   def cycleSlack(p: ElasParams): Int =
-    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 5 + ownerStages + planeStages + 2 + treeRegisters(p)
+    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 6 + ownerStages + planeStages + 2 + treeRegisters(p)
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
