@@ -339,14 +339,17 @@ class DenseMatcher(p: ElasParams) extends Module {
   // pixel leaving A, and the pixel entering then needs another row or frame, so the register is never true too long.
   val aGridHit = RegNext(gridHit, false.B)
   val aReady = !aFirst || (shadowFull && aGridHit) // only a row's first pixel waits (for its primer and grid row)
-  val adv = credits =/= 0.U && (!aValid || aReady) // stages A..C move (C issues a candidate group)
+  // The handshake (adv, upAdv, slot) and what it enables read flags kept as registers (credits =/= 0, the last
+  // candidate group, flushing, the primer lag done) rather than counter compares: it reaches every register of A..C.
+  val creditOk = RegInit(true.B) // credits =/= 0
+  val adv = creditOk && (!aValid || aReady) // stages A..C move (C issues a candidate group)
   val cValid = RegInit(false.B)
   val group = RegInit(0.U(math.max(1, log2Ceil(groups)).W)) // candidate group stage C issues this cycle
-  val cLast = group === (groups - 1).U
+  val cLast = if (groups == 1) true.B else RegInit(false.B) // group === groups - 1
   val upAdv = adv && (!cValid || cLast) //          stage C takes the next pixel: the stream, A and B move
 
   val flush = RegInit(0.U(log2Ceil(D + 1).W)) // flush steps still to insert after a frame's last beat
-  val flushing = flush =/= 0.U
+  val flushing = RegInit(false.B) //               flush =/= 0
   io.desc.ready := upAdv && !flushing
   val slot = upAdv && (flushing || io.desc.valid)
   val slotSof = !flushing && io.desc.bits.sof
@@ -374,17 +377,22 @@ class DenseMatcher(p: ElasParams) extends Module {
   val genHCur = RegNext(Mux(gen.cr === lastCellRow, lastRowH, step.U))
   val genHNext = RegNext(Mux(gen.cr +& 1.U === lastCellRow, lastRowH, step.U))
   val lag = RegInit(0.U(log2Ceil(D + 1).W))
+  val lagDone = RegInit(false.B) // lag === D: pixels enter stage A
   val sofPending = RegInit(false.B) // a frame the primer has not started yet
   val aAddr = Reg(UInt(ringW.W)) //     ring address of a's pixel (its stream position)
   // a's reference descriptors, read from the ring as the pixel enters stage A
-  val aRef = DenseMatcher.stageRead(refRing, wp - D.U, slot && !slotSof && lag === D.U && genActive)
+  val aRef = DenseMatcher.stageRead(refRing, wp - D.U, slot && !slotSof && lagDone && genActive)
 
-  when(io.desc.fire && io.desc.bits.eof) { flush := D.U }
+  when(io.desc.fire && io.desc.bits.eof) { flush := D.U; flushing := true.B }
   when(slot) {
-    when(flushing) { flush := flush - 1.U }
+    when(flushing) {
+      flush := flush - 1.U
+      when(flush === 1.U) { flushing := false.B }
+    }
     aValid := false.B
     when(slotSof) {
       lag := 1.U
+      lagDone := (D == 1).B
       width := io.frameWidth
       height := io.frameHeight
       inFp := !inFp
@@ -396,8 +404,9 @@ class DenseMatcher(p: ElasParams) extends Module {
       val firstRowH = Mux(io.frameHeight - 1.U < step.U, io.frameHeight - 1.U, step.U) // cell row 0: min(step, H - 1)
       gen.h := firstRowH
       gen.up := firstRowH
-    }.elsewhen(lag =/= D.U) {
+    }.elsewhen(!lagDone) {
       lag := lag + 1.U
+      lagDone := lag === (D - 1).U
     }.elsewhen(genActive) {
       aValid := true.B
       a := gen
@@ -860,7 +869,11 @@ class DenseMatcher(p: ElasParams) extends Module {
   val dValid = RegNext(issue, false.B)
   val dReg = Reg(new StageD)
   when(issue) { group := Mux(cLast, 0.U, group + 1.U) }
-  credits := credits - (issue && cLast).asUInt + outQueue.io.deq.fire.asUInt
+  if (groups > 1) when(issue) { cLast := !cLast && group === (groups - 2).U }
+  val creditTaken = issue && cLast
+  val creditBack = outQueue.io.deq.fire
+  credits := credits - creditTaken.asUInt + creditBack.asUInt
+  creditOk := Mux(creditTaken === creditBack, credits =/= 0.U, Mux(creditTaken, credits =/= 1.U, true.B))
   dReg.refs := c.refs
   dReg.live := c.live
   for (view <- 0 until 2; k <- 0 until lanes) dReg.cand(view)(k) := candC(view)(k)
