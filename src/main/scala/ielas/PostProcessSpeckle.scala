@@ -172,10 +172,16 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     when(wen) { mems.foreach(_.write(waddr, wdata)) }
     def write(slot: UInt, x: UInt, d: UInt): Unit = { wen := true.B; wslot := slot; wx := x; wdata := d }
     def read(reader: Int, slot: UInt, x: UInt): UInt = {
+      val (hit, written, word) = readParts(reader, slot, x)
+      Mux(hit, written, word)
+    }
+    /** The read as (the write of its cycle hit, that write's data, the word read): a reader that computes from the
+      * word can compute from both and select after (the block RAM's output then meets no multiplexer first). */
+    def readParts(reader: Int, slot: UInt, x: UInt): (Bool, UInt, UInt) = {
       val word = Reg(UInt(width.W)); word := mems(reader).read(addr(slot, x))
       val written = Reg(UInt(width.W)); written := wdata
       val hit = RegNext(wen && wslot === slot && wx === x, false.B)
-      Mux(hit, written, word)
+      (hit, written, word)
     }
   }
   // K: flat classes, 3 rows (B never waits for C to finish reading K_{k-2}); written by B2, read by A0, B1, C0.
@@ -449,14 +455,14 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // R_k[cls]: the word read in AK; S_k of that node is read now (and seen by A2: the read includes A2's write-back of
   // this cycle). A2's R and rValid writes of this cycle are not in the words read here, and nothing is forwarded in
   // A1 (that kept A2's decision off the S read address): such a write means the pixel in A2 touched this class
-  // first, and A2 then finds hitR, takes rn as its top and uses none of rn, mWord and the rn compares below.
+  // first, and A2 then finds hitR, takes rn as its top and uses none of rn, m's size and the rn compares below.
   // R_k's flags were cleared at the row start.
   // The pixel in A2 is the previous one of the same row (a row's first pixel finds A2 empty); S_{k-1} is complete
   // for a row's first pixel (T takes it once the previous row's last pixel has left A0: that pixel's last S write
   // and finTop come no later than this pixel's AK read).
   val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
   val rnRaw = rWordA
-  val mWord = sTab.read(1, inA1.sl.s, rnRaw)
+  val (mHit, mWritten, mRead) = sTab.readParts(1, inA1.sl.s, rnRaw) // S_k[rn]: mWritten if mHit, else mRead
   inA2v := inA1v
   inA2.p := inA1
   inA2.rvGroups := rvA.groups(inA1.sl.r, inA1.cls)
@@ -495,9 +501,12 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // saturated; without a push as one sum min(cap, topSize + size + valid), the same value. The sums with topSize
   // are formed beside the decision, which only selects.
   val v = q.valid.asUInt
+  // the sums with m's size from both of its sources, selected after (the S block RAM's output goes straight in)
+  val oneM = Mux(mHit, satAdd(1.U(sW.W), mWritten), satAdd(1.U(sW.W), mRead))
+  val topM = Mux(mHit, satAdd(topSize +& mWritten, v), satAdd(topSize +& mRead, v))
   val newSize = Mux(q.newRun,
-    Mux(touchNew, satAdd(1.U(sW.W), inA2.sPrev), Mux(touchOld, Mux(mIsTop, satAdd(topSize, v), satAdd(1.U(sW.W), mWord)), 1.U(sW.W))),
-    Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, satAdd(topSize +& mWord, v), satAdd(topSize, v))))
+    Mux(touchNew, satAdd(1.U(sW.W), inA2.sPrev), Mux(touchOld, Mux(mIsTop, satAdd(topSize, v), oneM), 1.U(sW.W))),
+    Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, topM, satAdd(topSize, v))))
   topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
   lastTouchNew := inA2v && touchNew
   when(inA2v) {
