@@ -50,7 +50,8 @@ import chisel3.util._
   *  K_{k-1} of the up node is written or is B2's current node: node ids are at most the column and B does one per
   *  clock). B and C start a row while its last pixel is in A2, so a row takes W + 2 clocks when the engines keep up
   *  (W before the pipeline). B works in two steps (B1: P_k[x] is there, K_k[P_k[x]] is read; B2: K_k[x] is written),
-  *  C in four (the class, its entry, the entry registered, then the map write, a clock after the row's end).
+  *  C in five (the class, its entry, the entry registered, a register per map, then the map write, two clocks after
+  *  the row's end).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
   * about W nodes), plus 2 L + 3 clocks of chain and A's steps; at W + 2 clocks a row that is within L + 2 rows of W
   * for W >= 3 L + 10, and the 2 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
@@ -245,7 +246,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val bNext = RegInit(0.U(seqW.W)); val bBusy = RegInit(false.B)
   val bD = new Slot(ND); val b2 = new Slot(2); val b3 = new Slot(3)
   val cNext = RegInit(0.U(seqW.W)); val cBusy = RegInit(false.B)
-  val c2Last = RegInit(false.B) // C2 forms the last entry of row cNext (C3 writes it)
+  val c2Last = RegInit(false.B) // C2 forms the last entry of row cNext (C4 writes it)
   val cD = new Slot(ND); val c2 = new Slot(2); val c3 = new Slot(3); val cF = new Slot(NF)
   val dDone = RegInit(0.U(seqW.W)) // rows retired by D (left the last chain stage)
   /** x - y of two row counters as a small signed register, updated with their increments: the engines' start
@@ -565,7 +566,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
 
   // ===== C: forward map F_k for the nodes of row k - 1, in three steps =====
-  // C0 reads the class of node x (K_{k-1}), C1 reads its entry (R_k, S_{k-1}, the touched flag), C2 forms F_k[x], C3 writes it.
+  // C0 reads the class of node x (K_{k-1}), C1 reads its entry (R_k, S_{k-1}, the touched flag), C2 forms F_k[x], C3 and C4 carry it to its map.
   // C may start while row k's last pixel is in A2 (C1 reads R_k a cycle later) and once B1 has finished row k - 1
   // (C0's read then sees B2's last K write). The row ends (cNext, C's slots) when C2 forms the last entry; C0 starts
   // the next row a clock later, so C's slots stay fixed while a row is in its steps.
@@ -600,14 +601,23 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // C2
   val c2Open = rvC.pick(c2OpenGroups, c2Class)
   val cEntry = Mux(c2Open, Cat(0.U(1.W), rWordC.pad(fW)), Cat(1.U(1.W), Mux(c2Fin, finSize(cSbuf), sWordC).pad(fW)))
-  // C3: the map write, from registers: the entry's multiplexer after the S and R block-RAM reads stays off the
-  // maps' write pins, which reach every map slot across the device. The row has ended a clock before (cNext): D
-  // cannot see that yet, its first map read of a row comes at least three clocks after cNext changes (dCN, then
-  // dReady, then the chain's stage 0), and A's and B's conditions on C concern its table reads, all done by C2.
-  val c3Sel = RegNext(Mux(c2v, UIntToOH(cF.cur, NF), 0.U), 0.U) // the map slot, one-hot (zero without a write)
+  // C3 registers the entry (the multiplexer after the S and R block-RAM reads stays off the long nets); C4 is one
+  // register per map, loaded only for its own slot (so synthesis keeps them apart and places each by its map), and
+  // writes it: one net from C3 to each map, not one to every map cell across the device. The row has ended two
+  // clocks before the last write lands (cNext changes at C2): D cannot see that yet, its first map read of a row
+  // is at the third clock edge after cNext changes (dCN, then dReady, then the chain's stage 0), and A's and B's
+  // conditions on C concern its table reads, all done by C2.
+  val c3v = RegNext(c2v, false.B)
+  val c3Slot = RegNext(cF.cur)
   val c3x = RegNext(c2x)
   val c3Entry = RegNext(cEntry)
-  for ((m, b) <- fMaps.zipWithIndex) when(c3Sel(b)) { m.write(c3x, c3Entry) }
+  for ((m, b) <- fMaps.zipWithIndex) {
+    val mine = c3v && c3Slot === b.U
+    val c4v = RegNext(mine, false.B)
+    val c4x = RegEnable(c3x, mine)
+    val c4Entry = RegEnable(c3Entry, mine)
+    when(c4v) { m.write(c4x, c4Entry) }
+  }
   when(c2Last) { cNext := cNext + 1.U; cIncW := true.B; cFirst := false.B; cD.inc(); c2.inc(); c3.inc(); cF.inc() }
 
   // ===== D: output chain =====
