@@ -338,7 +338,10 @@ class DenseMatcher(p: ElasParams) extends Module {
   // that completes in that clock shows a clock late (a wait of one cycle); a bank is released only by its row's last
   // pixel leaving A, and the pixel entering then needs another row or frame, so the register is never true too long.
   val aGridHit = RegNext(gridHit, false.B)
-  val aReady = !aFirst || (shadowFull && aGridHit) // only a row's first pixel waits (for its primer and grid row)
+  // only a row's first pixel waits (for its primer and grid row): aReady = !aFirst || (shadowFull && aGridHit), kept
+  // as a register formed from those three's next values (below), so the handshake starts at flip-flops
+  val aReady = RegInit(false.B)
+  val aRowEnd = RegInit(false.B) // a.u = width - 1, registered with a
   // The handshake (adv, upAdv, slot) and what it enables read flags kept as registers (credits =/= 0, the last
   // candidate group, flushing, the primer lag done) rather than counter compares: it reaches every register of A..C.
   val creditOk = RegInit(true.B) // credits =/= 0
@@ -369,6 +372,9 @@ class DenseMatcher(p: ElasParams) extends Module {
 
   // pixel generator: pixel P = n - dispMax enters stage A with stream position n
   val gen = Reg(new Pos)
+  val genFirst = RegInit(false.B) // gen.u = 0
+  val genGridHit = bankOf(gridFull, gridTag, gen.fp, gen.gy)._1
+  val loadA = WireDefault(false.B) // gen enters stage A this cycle
   val genActive = RegInit(false.B)
   // gen's cell-row facts, a register behind gen: its cell row changes only at a row end, and the next row end that
   // reads them is a row (>= 2 pixels) later; lastCellRow and lastRowH settle within 4 cycles of sof, long before
@@ -399,6 +405,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       sofPending := true.B
       genActive := true.B
       gen := 0.U.asTypeOf(new Pos)
+      genFirst := true.B
       gen.shiftX0 := shiftX0First
       gen.fp := !inFp
       val firstRowH = Mux(io.frameHeight - 1.U < step.U, io.frameHeight - 1.U, step.U) // cell row 0: min(step, H - 1)
@@ -410,11 +417,14 @@ class DenseMatcher(p: ElasParams) extends Module {
     }.elsewhen(genActive) {
       aValid := true.B
       a := gen
-      aFirst := gen.u === 0.U
-      aGridHit := bankOf(gridFull, gridTag, gen.fp, gen.gy)._1
+      loadA := true.B
+      aFirst := genFirst
+      aRowEnd := rowEnd(gen)
+      aGridHit := genGridHit
       aShift := cellAt(gen.cu + (K - 1).U, gen.shiftX0)
       aAddr := wp - D.U
       gen := advance(gen, genBelow, genHCur, genHNext)
+      genFirst := rowEnd(gen)
       when(frameEnd(gen)) { genActive := false.B }
     }
   }.elsewhen(upAdv) {
@@ -490,11 +500,13 @@ class DenseMatcher(p: ElasParams) extends Module {
   when(p3Valid) {
     shadow(0) := noSpan
     for (j <- 1 until K) when(p3J === (j - 1).U) { shadow(j) := p3Span }
-    when(p3J === (K - 2).U) {
-      shadowFull := true.B
-      pIssued := false.B
-    }
+    when(p3J === (K - 2).U) { pIssued := false.B }
   }
+  // the shadow is full from the primer's last write until the row's first pixel leaves A (the primer writes only
+  // while it is empty, so the two never meet)
+  val shadowFullNext = Mux(aFire && aFirst, false.B, Mux(p3Valid && p3J === (K - 2).U, true.B, shadowFull))
+  shadowFull := shadowFullNext
+  aReady := !Mux(loadA, genFirst, aFirst) || (shadowFullNext && Mux(loadA, genGridHit, gridHit))
 
   // ---------------------------------------------------------------- stage A
   // Stage A decides what needs the window and the frame registers (the cover tests, the left owner's two products,
@@ -507,7 +519,6 @@ class DenseMatcher(p: ElasParams) extends Module {
   val win = Mux(aFirst, shadow, window)
   val uh = a.uh.zext
 
-  when(aFire && a.u === 0.U) { shadowFull := false.B }
   // next window: shift by one cell when the next pixel enters the next cell. The entering cell's cuts are read at
   // the pixel before (every pixel that fires registers those of its own cu + K - 1): a shift happens at a cell's
   // last pixel (uIn = step - 1 >= 1), so the pixel before it is in the same cell and row.
@@ -525,7 +536,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     if (step >= 4) RegNext(spanOfProducts(RegNext(productsOf(shiftCuts, aUp, aDown))))
     else if (step == 3) RegNext(spanOf(shiftCuts, aUp, aDown))
     else spanOf(shiftCuts, aUp, aDown)
-  when(aFire && !rowEnd(a)) {
+  when(aFire && !aRowEnd) {
     when(nextCellCol(a)) {
       for (j <- 0 until K - 1) window(j) := win(j + 1)
       window(K - 1) := shiftSpan
