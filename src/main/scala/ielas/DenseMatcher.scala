@@ -940,6 +940,10 @@ class DenseMatcher(p: ElasParams) extends Module {
   d3Valid := d2Valid
   d3 := d2
   d3Targets := d2Targets
+  // the references once per lane: one register set beside each lane's SAD instead of one net to every lane (loaded
+  // only for a valid candidate, whose SAD alone is used: the enables differ, so synthesis keeps the copies apart)
+  val d3Refs = Reg(Vec(2, Vec(lanes, UInt(descBits.W))))
+  for (view <- 0 until 2; k <- 0 until lanes) when(d2.cand(view)(k).valid) { d3Refs(view)(k) := d2.refs(view) }
   // Each lane's SAD as four quarter-descriptor SADs (a 16- or 8-byte adder tree maps to 7 LUT levels), summed with
   // the prior in E -> F.
   def partSads(x: UInt, y: UInt): Seq[UInt] = (0 until sadParts).map { part =>
@@ -949,7 +953,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     u.io.y := y(8 * hi - 1, 8 * lo)
     u.io.sad
   }
-  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => partSads(d3.refs(view), d3Targets(view)(k))))
+  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => partSads(d3Refs(view)(k), d3Targets(view)(k))))
   eValid := d3Valid
   eTail := tailOf(d3)
   for (view <- 0 until 2; k <- 0 until lanes) {
