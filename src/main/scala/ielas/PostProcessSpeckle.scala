@@ -704,9 +704,12 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val apply = applies(i, b)
     val e = VecInit(portData.map(_(i % 2)))(b.slot)
     when(apply) { r.closed := e(fW); r.ptr := e(fW - 1, 0) }
-    val nextApplies = b.value >= 0.S && !r.closed && (i + 1).U <= b.n
-    val rotated = if (NF > 1) Cat(b.tgt(NF - 2, 0), b.tgt(NF - 1)) else b.tgt // the next stage's map: one slot on
-    r.tgt := Mux(nextApplies, rotated, 0.U)
+    // the next stage's map, one slot on, while the chain lasts (a beat closed here keeps its slot: its reads are
+    // unused, and a slot held by position never meets another beat's, see `waits`; the closed bit from the lookup
+    // stays off the read ports' selects)
+    val chainGoesOn = b.value >= 0.S && (i + 1).U <= b.n
+    val rotated = if (NF > 1) Cat(b.tgt(NF - 2, 0), b.tgt(NF - 1)) else b.tgt
+    r.tgt := Mux(chainGoesOn, rotated, 0.U)
     r.slot := Mux(b.slot === (NF - 1).U, 0.U, b.slot + 1.U)
     r
   }
