@@ -338,6 +338,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   // that completes in that clock shows a clock late (a wait of one cycle); a bank is released only by its row's last
   // pixel leaving A, and the pixel entering then needs another row or frame, so the register is never true too long.
   val aGridHit = RegNext(gridHit, false.B)
+  val aGridSel = RegNext(gridSel) // a's grid bank, registered the same way (the bank read's select is a flip-flop)
   // only a row's first pixel waits (for its primer and grid row): aReady = !aFirst || (shadowFull && aGridHit), kept
   // as a register formed from those three's next values (below), so the handshake starts at flip-flops
   val aReady = RegInit(false.B)
@@ -373,7 +374,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   // pixel generator: pixel P = n - dispMax enters stage A with stream position n
   val gen = Reg(new Pos)
   val genFirst = RegInit(false.B) // gen.u = 0
-  val genGridHit = bankOf(gridFull, gridTag, gen.fp, gen.gy)._1
+  val (genGridHit, genGridSel) = bankOf(gridFull, gridTag, gen.fp, gen.gy)
   val loadA = WireDefault(false.B) // gen enters stage A this cycle
   val genActive = RegInit(false.B)
   // gen's cell-row facts, a register behind gen: its cell row changes only at a row end, and the next row end that
@@ -421,6 +422,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       aFirst := genFirst
       aRowEnd := rowEnd(gen)
       aGridHit := genGridHit
+      aGridSel := genGridSel
       aShift := cellAt(gen.cu + (K - 1).U, gen.shiftX0)
       aAddr := wp - D.U
       gen := advance(gen, genBelow, genHCur, genHNext)
@@ -564,7 +566,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val fallback = UInt((cellW + 1).W) // right-view owner of a row without covered pixels: the row's last triangle
     val carry = new Carry
   }
-  val gridCell = readBank(gridBanks, gridSel, a.gx, p.gridColsMax)
+  val gridCell = readBank(gridBanks, aGridSel, a.gx, p.gridColsMax) // (aGridSel is right once aReady: see aGridHit)
   val aPixel = Wire(new Pixel)
   aPixel.u := a.u
   aPixel.v := a.v
@@ -584,7 +586,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   aPixel.carry.eof := frameEnd(a)
   // release the grid row bank after its last pixel (its read is in stage A)
   when(aFire && rowEnd(a)) {
-    when(frameEnd(a) || a.vG === (G - 1).U) { gridFull(gridSel) := false.B }
+    when(frameEnd(a) || a.vG === (G - 1).U) { gridFull(aGridSel) := false.B }
   }
 
   /** A register step of the upstream pipeline (stages A1..B3): it loads `fill` and takes the valid bit of the step
