@@ -8,6 +8,11 @@ MODULE_RE = re.compile(r"^\s*module\s+(\w+)", re.M)
 INSTANCE_RE = re.compile(r"^\s*(\w+)\s+(?:#\s*\(.*?\)\s*)?(\w+)\s*\(", re.M)
 # A firtool memory module: `reg [W-1:0] Memory[0:D-1];`
 MEMORY_RE = re.compile(r"^\s*reg\s+(?:\[(\d+):0\]\s+)?(\w+)\s*\[0:(\d+)\]\s*;", re.M)
+# firtool's macro header, written into every file once the design has one assertion. It defines
+# ASSERT_VERBOSE_COND_ and STOP_COND_ only, so it means nothing to a file that never uses them.
+FIRTOOL_MACRO_HEADER_RE = re.compile(
+    r"// Standard header to adapt well known macros for prints and assertions\.\n.*?`endif // not def STOP_COND_\n\n",
+    re.S)
 KEYWORDS = {"module", "input", "output", "inout", "wire", "reg", "assign", "always", "if", "else", "for",
             "begin", "end", "initial", "function", "task", "case", "endcase", "localparam", "parameter", "logic"}
 
@@ -78,8 +83,18 @@ class Design:
         """sha256 over the text of every file `top` depends on (names included), salted with the flow's identity."""
         h = hashlib.sha256(salt.encode())
         for f in self.closure_files(top):
-            h.update(b"\0" + f.encode() + b"\0" + self.text[f].encode())
+            h.update(b"\0" + f.encode() + b"\0" + self.hashed_text(f).encode())
         return h.hexdigest()
+
+    def hashed_text(self, f):
+        """The file's text without firtool's macro header when the file does not use those macros, so that an
+        assertion added in one module does not change every other module's cache key."""
+        text = self.text[f]
+        header = FIRTOOL_MACRO_HEADER_RE.search(text)
+        if header is None:
+            return text
+        rest = text[:header.start()] + text[header.end():]
+        return text if re.search(r"`(ASSERT_VERBOSE_COND_|STOP_COND_)", rest) else rest
 
     def memories(self, top):
         """Memories declared below `top`: (module, array, width, depth, sync_read). A SyncReadMem's firtool
