@@ -589,16 +589,16 @@ class DenseMatcher(p: ElasParams) extends Module {
     when(frameEnd(a) || a.vG === (G - 1).U) { gridFull(aGridSel) := false.B }
   }
 
-  /** A register step of the upstream pipeline (stages A1..B3): it loads `fill` and takes the valid bit of the step
-    * before it whenever the upstream pipeline advances.
+  /** A register step of the upstream pipeline (stages A1..B3): it takes the valid bit of the step before it whenever
+    * the upstream pipeline advances, and loads `fill` only when that bit is set (an empty step's data is never read).
+    * So each step's data registers have an enable of their own, `upAdv && prevValid`, placed beside them: one
+    * enable shared by every register of A1..C was the critical net (its fan-out, docs/architecture.md).
     */
   def upStage[T <: Data](gen: T, prevValid: Bool)(fill: T => Unit): (Bool, T) = {
     val valid = RegInit(false.B)
     val r = Reg(gen)
-    when(upAdv) {
-      valid := prevValid
-      fill(r)
-    }
+    when(upAdv) { valid := prevValid }
+    when(upAdv && prevValid) { fill(r) }
     (valid, r)
   }
 
@@ -786,8 +786,8 @@ class DenseMatcher(p: ElasParams) extends Module {
     val eof = Bool()
   }
   val c = Reg(new StageC)
-  when(upAdv) {
-    cValid := b3Valid
+  when(upAdv) { cValid := b3Valid }
+  when(upAdv && b3Valid) { // (as in upStage: C's data is loaded with a valid pixel only)
     c.addr := b3.carry.addr
     c.refs := b3.carry.refs
     c.live := b3.live
