@@ -53,8 +53,8 @@ import chisel3.util._
   *  C in five (the class, its entry, the entry registered, a register per map, then the map write, two clocks after
   *  the row's end).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus 2 L + 3 clocks of chain and A's steps; at W + 2 clocks a row that is within L + 2 rows of W
-  * for W >= 3 L + 10, and the 2 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
+  * about W nodes), plus 3 L + 3 clocks of chain and A's steps; at W + 2 clocks a row that is within L + 2 rows of W
+  * for W >= 4 L + 10, and the 2 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
   * ceil(2 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
   * Memories: every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
   * row and column, A's pixel count, B's node), at the address a pipeline step forms for the next step, or (D's chain)
@@ -605,7 +605,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // register per map, loaded only for its own slot (so synthesis keeps them apart and places each by its map), and
   // writes it: one net from C3 to each map, not one to every map cell across the device. The row has ended two
   // clocks before the last write lands (cNext changes at C2): D cannot see that yet, its first map read of a row
-  // is at the third clock edge after cNext changes (dCN, then dReady, then the chain's stage 0), and A's and B's
+  // is at the fourth clock edge after cNext changes (dCN, dReady, the chain's stage 0, its address register), and A's and B's
   // conditions on C concern its table reads, all done by C2.
   val c3v = RegNext(c2v, false.B)
   val c3Slot = RegNext(cF.cur)
@@ -713,17 +713,21 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     r.slot := Mux(b.slot === (NF - 1).U, 0.U, b.slot + 1.U)
     r
   }
-  // Each lookup takes two clocks, so that no map read address depends on a map read: the read is issued from
-  // stage i - 1's register, the beat waits in waits(i - 1) while the block RAM reads (its read register is enabled by
-  // `advance`, so it holds the beat's word while the chain stalls), and the lookup forms stage i. The readers of a
-  // port are then every other beat of the stream: two of one port and one map (rows r and r + d at stages d apart,
-  // d even) have 2d - 1 beats between them, holding rows r + 1 .. r + d - 1, so they never meet for frames at least
-  // 4 wide (a frame's virtual row is one beat, but the last row before it applies no map beyond stage 1).
+  // Each lookup takes three clocks, so that no map read address depends on a map read and the long nets are each
+  // in a clock of their own: stage i - 1's register drives the map's address multiplexer, whose result is registered
+  // beside the map (the beat waits in addrWaits(i - 1)); the map reads into a register (the beat waits in
+  // waits(i - 1)); the lookup forms stage i. The address and read registers are enabled by `advance`, so they hold
+  // the beat's address and word while the chain stalls. The readers of a port are then every third beat of the
+  // stream: two of one port and one map (rows r and r + d at stages d apart, d even) have at most 3d - 1 beats
+  // between them, holding rows r + 1 .. r + d - 1, so they never meet for frames at least 6 wide (a frame's virtual
+  // row is one beat, but the last row before it applies no map beyond stage 1).
+  val addrWaits = Seq.fill(L)(RegInit(0.U.asTypeOf(Valid(new Beat))))
   val waits = Seq.fill(L)(RegInit(0.U.asTypeOf(Valid(new Beat))))
   when(advance) {
     stages(0) := s0
     for (i <- 1 to L) {
-      waits(i - 1) := stages(i - 1)
+      addrWaits(i - 1) := stages(i - 1)
+      waits(i - 1) := addrWaits(i - 1)
       stages(i).valid := waits(i - 1).valid
       stages(i).bits := lookup(i, waits(i - 1).bits)
       when(!waits(i - 1).valid) { stages(i).bits.tgt := 0.U }
@@ -733,7 +737,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val users = (1 to L).filter(_ % 2 == q)
     val sel = users.map(i => target(stages(i - 1).bits, b)) // (zero unless the beat is valid and applies F here)
     val address = if (users.isEmpty) 0.U else PriorityMux(sel :+ true.B, users.map(i => stages(i - 1).bits.ptr(idW - 1, 0)) :+ 0.U)
-    portData(b)(q) := (if (users.isEmpty) 0.U else RegEnable(m.read(address), advance))
+    portData(b)(q) := (if (users.isEmpty) 0.U else RegEnable(m.read(RegEnable(address, advance)), advance))
   }
   when(advance) {
     val last = stages(L)
