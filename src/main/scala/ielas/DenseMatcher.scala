@@ -129,9 +129,11 @@ class DenseMatcher(p: ElasParams) extends Module {
   val gridFull = RegInit(VecInit(Seq.fill(2)(false.B)))
   val gridTag = Reg(Vec(2, new Tag))
 
-  /** Fills the two banks alternately, one row per bank; a row's tag is (frame parity, row in frame). */
-  def loader[T <: Data](in: DecoupledIO[Framed[T]], full: Vec[Bool], tag: Vec[Tag], depth: Int)(
-      write: (Int, UInt, T) => Unit): Unit = {
+  /** Fills the two banks alternately, one row per bank; a row's tag is (frame parity, row in frame). With
+    * `registeredWrite` the bank write lands a clock after the beat is taken (its enable then starts at a flip-flop,
+    * not at the handshake): only for banks whose readers see a row a clock after its `full` is set. */
+  def loader[T <: Data](in: DecoupledIO[Framed[T]], full: Vec[Bool], tag: Vec[Tag], depth: Int,
+      registeredWrite: Boolean = false)(write: (Int, UInt, T) => Unit): Unit = {
     val fill = RegInit(0.U(1.W))
     val col = RegInit(0.U(log2Ceil(depth + 1).W))
     val row = RegInit(0.U(tag(0).row.getWidth.W))
@@ -141,7 +143,8 @@ class DenseMatcher(p: ElasParams) extends Module {
       val beatFp = Mux(in.bits.sof, !fp, fp)
       val beatRow = Mux(in.bits.sof, 0.U, row)
       val beatCol = Mux(in.bits.sof, 0.U, col)
-      for (i <- 0 until 2) when(fill === i.U) { write(i, beatCol(math.max(log2Ceil(depth), 1) - 1, 0), in.bits.data) }
+      if (!registeredWrite)
+        for (i <- 0 until 2) when(fill === i.U) { write(i, beatCol(math.max(log2Ceil(depth), 1) - 1, 0), in.bits.data) }
       fp := beatFp
       col := beatCol + 1.U
       row := beatRow
@@ -154,13 +157,24 @@ class DenseMatcher(p: ElasParams) extends Module {
         row := beatRow + 1.U
       }
     }
+    if (registeredWrite) {
+      val wValid = RegNext(in.fire, false.B)
+      val wBank = RegNext(fill)
+      val wAddr = RegNext(Mux(in.bits.sof, 0.U, col)(math.max(log2Ceil(depth), 1) - 1, 0))
+      val wData = RegNext(in.bits.data)
+      for (i <- 0 until 2) when(wValid && wBank === i.U) { write(i, wAddr, wData) }
+    }
   }
   loader(io.planes, planeFull, planeTag, cellsMax) { (i, addr, cell) =>
     cornerBanks(i).write(addr, cell.corners)
     planeBanksL(i).write(addr, cell.left)
     planeBanksR(i).write(addr, cell.right)
   }
-  loader(io.grid, gridFull, gridTag, p.gridColsMax) { (i, addr, cell) => gridBanks(i).write(addr, cell) }
+  // The grid banks' write a clock late: stage A reads a row only through aGridHit, a register formed from the banks'
+  // `full` flags, so its first read of a row is a clock after `full` is set, when the last write has landed.
+  loader(io.grid, gridFull, gridTag, p.gridColsMax, registeredWrite = true) { (i, addr, cell) =>
+    gridBanks(i).write(addr, cell)
+  }
 
   def bankOf(full: Vec[Bool], tag: Vec[Tag], fp: Bool, row: UInt): (Bool, UInt) = {
     val hit = (0 until 2).map(i => full(i) && tag(i).fp === fp && tag(i).row === row)

@@ -498,16 +498,20 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val newTop = Mux(touchOld, rn, pushTop)
   // The new size, base + the touched class's or m's size (base = 1 after a push, else topSize + valid), as one
   // saturating sum min(cap, a + b + valid): nested saturation of non-negative terms is the same (sizes <= cap).
-  // The new size: base (1 after a push, else satAdd(topSize, valid)) plus the touched class's or m's size,
-  // saturated; without a push as one sum min(cap, topSize + size + valid), the same value. The sums with topSize
-  // are formed beside the decision, which only selects.
+  // The sums are formed beside the decision, which only selects.
   val v = q.valid.asUInt
-  // the sums with m's size from both of its sources, selected after (the S block RAM's output goes straight in)
-  val oneM = Mux(mHit, satAdd(1.U(sW.W), mWritten), satAdd(1.U(sW.W), mRead))
-  val topM = Mux(mHit, satAdd(topSize +& mWritten, v), satAdd(topSize +& mRead, v))
-  val newSize = Mux(q.newRun,
+  // m's size from the S block RAM's word (not the forwarded write) enters one sum, base + word with base = 1 after a
+  // push, else topSize + valid (from registers), and that sum one multiplexer at the end: the block RAM's output
+  // meets an adder, the saturation and one select, and every other candidate is formed from registers beside it.
+  val readBase = Mux(q.newRun, 1.U, topSize +& v)
+  val readSum = satAdd(readBase, mRead)
+  val useRead = touchOld && !mHit && !(q.newRun && mIsTop)
+  val oneM = satAdd(1.U(sW.W), mWritten) // (with mRead instead when useRead)
+  val topM = satAdd(topSize +& mWritten, v)
+  val sizeFromRegs = Mux(q.newRun,
     Mux(touchNew, satAdd(1.U(sW.W), inA2.sPrev), Mux(touchOld, Mux(mIsTop, satAdd(topSize, v), oneM), 1.U(sW.W))),
     Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, topM, satAdd(topSize, v))))
+  val newSize = Mux(useRead, readSum, sizeFromRegs)
   topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
   lastTouchNew := inA2v && touchNew
   when(inA2v) {
