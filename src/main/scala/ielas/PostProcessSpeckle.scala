@@ -504,7 +504,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // push, else topSize + valid (from registers), and that sum one multiplexer at the end: the block RAM's output
   // meets an adder, the saturation and one select, and every other candidate is formed from registers beside it.
   val readBase = Mux(q.newRun, 1.U, topSize +& v)
-  val readSum = satAdd(readBase, mRead)
+  // min(cap, base + word): the saturation test compares the word with cap - base (from registers), beside the sum,
+  // so the word goes through one carry chain, not the sum's and then the compare's
+  val readRaw = readBase +& mRead
+  val readOver = mRead.zext >= cap.S - readBase.zext
+  val readSum = Mux(readOver, cap.U, readRaw)(sW - 1, 0)
   val useRead = touchOld && !mHit && !(q.newRun && mIsTop)
   val oneM = satAdd(1.U(sW.W), mWritten) // (with mRead instead when useRead)
   val topM = satAdd(topSize +& mWritten, v)
