@@ -365,6 +365,16 @@ class DenseMatcher(p: ElasParams) extends Module {
   val group = RegInit(0.U(math.max(1, log2Ceil(groups)).W)) // candidate group stage C issues this cycle
   val cLast = if (groups == 1) true.B else RegInit(false.B) // group === groups - 1
   val upAdv = adv && (!cValid || cLast) //          stage C takes the next pixel: the stream, A and B move
+  // upAdv's value at the next clock edge, from the next values of its five registers (assigned below)
+  val upAdvNext = Wire(Bool())
+  /** A step's valid bit and its value at the next edge. `moves` (its pixel moves on this clock: upAdv && valid) is a
+    * register formed a clock ahead from those next values, so the enable of the data a pixel carries into the next
+    * step starts at a flip-flop of its own, one per step, however far the step's registers are spread: those nets
+    * were the critical paths (docs/architecture.md). An assertion checks it against upAdv && valid. */
+  class Flow(val valid: Bool, val next: Bool) {
+    val moves: Bool = RegNext(upAdvNext && next, false.B)
+    assert(moves === (upAdv && valid), "DenseMatcher: a registered step enable differs from upAdv && valid")
+  }
 
   val flush = RegInit(0.U(log2Ceil(D + 1).W)) // flush steps still to insert after a frame's last beat
   val flushing = RegInit(false.B) //               flush =/= 0
@@ -410,7 +420,6 @@ class DenseMatcher(p: ElasParams) extends Module {
       flush := flush - 1.U
       when(flush === 1.U) { flushing := false.B }
     }
-    aValid := false.B
     when(slotSof) {
       lag := 1.U
       lagDone := (D == 1).B
@@ -430,7 +439,6 @@ class DenseMatcher(p: ElasParams) extends Module {
       lag := lag + 1.U
       lagDone := lag === (D - 1).U
     }.elsewhen(genActive) {
-      aValid := true.B
       a := gen
       loadA := true.B
       aFirst := genFirst
@@ -443,10 +451,12 @@ class DenseMatcher(p: ElasParams) extends Module {
       genFirst := rowEnd(gen)
       when(frameEnd(gen)) { genActive := false.B }
     }
-  }.elsewhen(upAdv) {
-    aValid := false.B
   }
-  val aFire = upAdv && aValid // stage A's pixel moves on this cycle
+  // (slot implies upAdv) a pixel enters A in a slot past the primer lag; otherwise A empties when the pipeline moves
+  val aValidNext = Mux(upAdv, slot && !slotSof && lagDone && genActive, aValid)
+  aValid := aValidNext
+  val aFlow = new Flow(aValid, aValidNext)
+  val aFire = aFlow.moves // stage A's pixel moves on this cycle (upAdv && aValid, a register)
   // The last cell column and row follow from the frame size registered at sof, a cycle later (the divisions stay off
   // the handshake paths); the primer issues its first cell two cycles after sof at the earliest.
   when(RegNext(slot && slotSof, false.B)) {
@@ -522,7 +532,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   // while it is empty, so the two never meet)
   val shadowFullNext = Mux(aFire && aFirst, false.B, Mux(p3Valid && p3J === (K - 2).U, true.B, shadowFull))
   shadowFull := shadowFullNext
-  aReady := !Mux(loadA, genFirst, aFirst) || (shadowFullNext && Mux(loadA, genGridHit, gridHit))
+  val aReadyNext = !Mux(loadA, genFirst, aFirst) || (shadowFullNext && Mux(loadA, genGridHit, gridHit))
+  aReady := aReadyNext
 
   // ---------------------------------------------------------------- stage A
   // Stage A decides what needs the window and the frame registers (the cover tests, the left owner's two products,
@@ -604,16 +615,16 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
 
   /** A register step of the upstream pipeline (stages A1..B3): it takes the valid bit of the step before it whenever
-    * the upstream pipeline advances, and loads `fill` only when that bit is set (an empty step's data is never read).
-    * So each step's data registers have an enable of their own, `upAdv && prevValid`, placed beside them: one
-    * enable shared by every register of A1..C was the critical net (its fan-out, docs/architecture.md).
+    * the upstream pipeline advances, and loads `fill` only when that bit is set (an empty step's data is never read),
+    * with the step before's registered `moves` as the enable.
     */
-  def upStage[T <: Data](gen: T, prevValid: Bool)(fill: T => Unit): (Bool, T) = {
+  def upStage[T <: Data](gen: T, prev: Flow)(fill: T => Unit): (Flow, T) = {
     val valid = RegInit(false.B)
+    val next = Mux(upAdv, prev.valid, valid)
+    valid := next
     val r = Reg(gen)
-    when(upAdv) { valid := prevValid }
-    when(upAdv && prevValid) { fill(r) }
-    (valid, r)
+    when(prev.moves) { fill(r) }
+    (new Flow(valid, next), r)
   }
 
   // Left view: cell cu spans x0..x1 (x1 = min(x0 + step, W - 1)), its triangles cover e = x0 h .. g and g .. f = x1 h
@@ -630,7 +641,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val covers = UInt((2 * K).W) // right view: triangle j*2 + t of the window covers the pixel (drawing order)
     val base2 = UInt((cellW + 1).W) // 2 x (cell of window entry 0)
   }
-  val (a1Valid, a1) = upStage(new StageA1, aValid) { r =>
+  val (a1Flow, a1) = upStage(new StageA1, aFlow) { r =>
     r.px := aPixel
     r.cu := a.cu
     r.uInH := a.uIn * aH
@@ -660,7 +671,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val blockAny = Vec(coverBlocks, Bool()) //   a block of 8 cover bits has a covering triangle
     val blockTop = Vec(coverBlocks, UInt(3.W)) // its highest one
   }
-  val (a2Valid, a2) = upStage(new StageA2, a1Valid) { r =>
+  val (a2Flow, a2) = upStage(new StageA2, a1Flow) { r =>
     r.px := a1.px
     r.leftOwner := Cat(a1.cu, a1.uInH >= a1.w1Up)(cellW, 0)
     r.base2 := a1.base2
@@ -678,7 +689,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val covered = Bool()
     val top = UInt((log2Ceil(coverBlocks) + 3).W) // the highest covering triangle's window index j * 2 + t
   }
-  val (a3Valid, a3) = upStage(new StageA3, a2Valid) { r =>
+  val (a3Flow, a3) = upStage(new StageA3, a2Flow) { r =>
     r.px := a2.px
     r.leftOwner := a2.leftOwner
     r.base2 := a2.base2
@@ -689,21 +700,21 @@ class DenseMatcher(p: ElasParams) extends Module {
   // Right view: the highest-indexed covering triangle in the window, else the owner of the last covered pixel.
   val carry = Reg(UInt((cellW + 1).W))
   val rightOwner = Mux(a3.covered, (a3.base2 + a3.top)(cellW, 0), Mux(a3.px.first, a3.px.fallback, carry))
-  when(upAdv && a3Valid) { carry := rightOwner }
+  when(a3Flow.moves) { carry := rightOwner }
 
   class StageB extends Bundle {
     val px = new Pixel
     val owner = Vec(2, UInt((cellW + 1).W))
   }
-  val (bValid, b) = upStage(new StageB, a3Valid) { r =>
+  val (bFlow, b) = upStage(new StageB, a3Flow) { r =>
     r.px := a3.px
     r.owner(0) := a3.leftOwner
     r.owner(1) := rightOwner
   }
   // the left view's targets: descR of the pixels that have passed stage B
-  when(upAdv && bValid) { ringR.foreach(_.write(b.px.carry.addr, b.px.carry.refs(1))) }
+  when(bFlow.moves) { ringR.foreach(_.write(b.px.carry.addr, b.px.carry.refs(1))) }
   // the plane row bank is free once the cell row's last pixel has read it (stage B)
-  when(upAdv && bValid && b.px.release) { planeFull(b.px.planeSel) := false.B }
+  when(bFlow.moves && b.px.release) { planeFull(b.px.planeSel) := false.B }
   val ownerPlanes = Seq(planeBanksL, planeBanksR).zipWithIndex.map { case (banks, view) =>
     val planes = readBank(banks, b.px.planeSel, b.owner(view) >> 1, cellsMax)
     Mux(b.owner(view)(0), planes(1), planes(0))
@@ -722,7 +733,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val dv = Vec(2, SInt((rowW + 2).W))
     val plane = Vec(2, new PlaneCoeffs(p))
   }
-  val (b1Valid, b1) = upStage(new StageB1, bValid) { r =>
+  val (b1Flow, b1) = upStage(new StageB1, bFlow) { r =>
     r.carry := b.px.carry
     r.inside := b.px.inside
     for (view <- 0 until 2) {
@@ -741,7 +752,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val priorOn = Vec(2, Bool())
     val negBlock = Vec(2, Vec(listBlocks, Bool())) // some grid entry of block i (entries 6i .. 6i + 5) is -1
   }
-  val (b2Valid, b2) = upStage(new StageB2, b1Valid) { r =>
+  val (b2Flow, b2) = upStage(new StageB2, b1Flow) { r =>
     r.carry := b1.carry
     for (view <- 0 until 2; i <- 0 until listBlocks) {
       r.negBlock(view)(i) := b1.carry.grid(view).slice(listBlock * i, listBlock * (i + 1)).map(_ < 0.S).reduce(_ || _)
@@ -762,7 +773,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val priorOn = Vec(2, Bool())
     val listLive = Vec(2, Vec(S, Bool())) // grid entry k comes before the list's first -1
   }
-  val (b3Valid, b3) = upStage(new StageB3, b2Valid) { r =>
+  val (b3Flow, b3) = upStage(new StageB3, b2Flow) { r =>
     r.carry := b2.carry
     r.live := b2.live
     r.priorOn := b2.priorOn
@@ -800,8 +811,9 @@ class DenseMatcher(p: ElasParams) extends Module {
     val eof = Bool()
   }
   val c = Reg(new StageC)
-  when(upAdv) { cValid := b3Valid }
-  when(upAdv && b3Valid) { // (as in upStage: C's data is loaded with a valid pixel only)
+  val cValidNext = Mux(upAdv, b3Flow.valid, cValid)
+  cValid := cValidNext
+  when(b3Flow.moves) { // (as in upStage: C's data is loaded with a valid pixel only)
     c.addr := b3.carry.addr
     c.refs := b3.carry.refs
     c.live := b3.live
@@ -896,11 +908,14 @@ class DenseMatcher(p: ElasParams) extends Module {
   val dValid = RegNext(issue, false.B)
   val dReg = Reg(new StageD)
   when(issue) { group := Mux(cLast, 0.U, group + 1.U) }
-  if (groups > 1) when(issue) { cLast := !cLast && group === (groups - 2).U }
+  val cLastNext = if (groups > 1) Mux(issue, !cLast && group === (groups - 2).U, cLast) else true.B
+  if (groups > 1) cLast := cLastNext
   val creditTaken = issue && cLast
   val creditBack = outQueue.io.deq.fire
   credits := credits - creditTaken.asUInt + creditBack.asUInt
-  creditOk := Mux(creditTaken === creditBack, credits =/= 0.U, Mux(creditTaken, credits =/= 1.U, true.B))
+  val creditOkNext = Mux(creditTaken === creditBack, credits =/= 0.U, Mux(creditTaken, credits =/= 1.U, true.B))
+  creditOk := creditOkNext
+  upAdvNext := creditOkNext && (!aValidNext || aReadyNext) && (!cValidNext || cLastNext)
   dReg.refs := c.refs
   dReg.live := c.live
   for (view <- 0 until 2; k <- 0 until lanes) dReg.cand(view)(k) := candC(view)(k)
