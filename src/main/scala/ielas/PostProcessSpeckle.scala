@@ -207,8 +207,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     def pick(groups: UInt, idx: UInt): Bool =
       if (count == 1) groups(0) else VecInit(groups.asBools.take(count))(idx(idW - 1, lo))
   }
-  // C: 8 groups (its pick has time in C2); A: 4 groups (the pick is one LUT in A2's decision)
-  private val rvC = new RvSplit(3)
+  // C: 32 groups (its pick has time in C2; C1's step follows a block-RAM read); A: 4 groups (the pick is one LUT in
+  // A2's decision)
+  private val rvC = new RvSplit(5)
   private val rvA = new RvSplit(2)
   /** Bit idx of v as a tree of 4:1 multiplexers (two index bits per LUT level). */
   private def bitAt(v: UInt, idx: UInt): Bool = {
@@ -591,7 +592,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   c1v := cActive && cxEff < cPrevN
   c1Last := cActive && cxEff + 1.U >= cPrevN
   c1x := cxEff(idW - 1, 0)
-  val c1Class = kTab.read(2, c3.prev, cxEff(idW - 1, 0))
+  val (c1Hit, c1Written, c1Read) = kTab.readParts(2, c3.prev, cxEff(idW - 1, 0))
+  val c1Class = Mux(c1Hit, c1Written, c1Read)
   when(cActive) {
     when(cxEff + 1.U >= cPrevN) { cBusy := false.B }.otherwise { cBusy := true.B; cx := cxEff + 1.U }
   }
@@ -604,7 +606,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   c2Last := c1Last
   val c2x = RegNext(c1x)
   // the touched flag in two steps: the group flags now (from the class read), the group in C2
-  val c2OpenGroups = Reg(UInt(rvC.count.W)); c2OpenGroups := rvC.groups(cRbuf, c1Class); val c2Class = RegNext(c1Class)
+  // (formed from both of the class's sources and selected after, so the block RAM's word meets the lookup first)
+  val c2OpenGroups = Reg(UInt(rvC.count.W))
+  c2OpenGroups := Mux(c1Hit, rvC.groups(cRbuf, c1Written), rvC.groups(cRbuf, c1Read))
+  val c2Class = RegNext(c1Class)
   val c2Fin = RegNext(finAny(cSbuf) && finTop(cSbuf) === c1Class)
   // C2
   val c2Open = rvC.pick(c2OpenGroups, c2Class)
