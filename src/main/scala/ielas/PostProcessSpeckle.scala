@@ -305,7 +305,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   class AKBeat extends Bundle {
     val sl = new ASlots
     val rowStart = Bool(); val lastCol = Bool()
-    val valid = Bool(); val newRun = Bool(); val node = UInt(idW.W); val connectU = Bool(); val upId = UInt(idW.W)
+    val valid = Bool(); val newRun = Bool(); val node = UInt(idW.W); val upId = UInt(idW.W)
+    // the up pixel's connection is tested in AK, from these registers (not after A0's upRows block-RAM read)
+    val upOk = Bool(); val v = SInt(vW.W); val upVal = SInt(vW.W)
   }
   class A1Beat extends Bundle {
     val sl = new ASlots
@@ -413,7 +415,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val thisRun = Mux(newRun, nodeNow, runId)
   val upVal = upWord(vW + idW - 1, idW).asSInt
   val upId = upWord(idW - 1, 0)
-  val connectU = a0Valid && inA0.hasUp && upVal >= 0.S && similar(inA0.v, upVal)
   // K_{k-1}[upId] is read now and used in AK (below)
   val kWordA = kTab.read(0, inA0.sl.sPrev, upId)
   // the row's start bookkeeping (a cycle after T; A1 reads R_k's flags a cycle later)
@@ -436,7 +437,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   inAKv := inA0v
   inAK.sl := inA0.sl
   inAK.rowStart := inA0.rowStart; inAK.lastCol := inA0.lastCol; inAK.valid := a0Valid; inAK.newRun := newRun
-  inAK.node := nodeNow; inAK.connectU := connectU; inAK.upId := upId
+  inAK.node := nodeNow; inAK.upId := upId
+  inAK.upOk := a0Valid && inA0.hasUp; inAK.v := inA0.v; inAK.upVal := upVal
 
   // ---- AK: the flat class cls = K_{k-1}[up node]; R_k[cls] and S_{k-1}[cls] are read ----
   // K_{k-1}[upId] is final: an up node id is at most the column, node 0 is always its own class, and from the second
@@ -451,7 +453,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   inA1v := inAKv
   inA1.sl := inAK.sl
   inA1.rowStart := inAK.rowStart; inA1.lastCol := inAK.lastCol; inA1.valid := inAK.valid; inA1.newRun := inAK.newRun
-  inA1.node := inAK.node; inA1.connectU := inAK.connectU; inA1.cls := cls
+  inA1.node := inAK.node; inA1.cls := cls
+  inA1.connectU := inAK.upOk && inAK.upVal >= 0.S && similar(inAK.v, inAK.upVal)
 
   // ---- A1: the class's row-k entries ----
   // R_k[cls]: the word read in AK; S_k of that node is read now (and seen by A2: the read includes A2's write-back of
