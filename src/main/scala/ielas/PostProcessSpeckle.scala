@@ -110,6 +110,21 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val metaW = Reg(Vec(ND, UInt(p.colBits.W)))
   val metaWm1 = Reg(Vec(ND, UInt(p.colBits.W))) // W - 1
   val metaN = Reg(Vec(ND, UInt((idW + 1).W))) // nodes of the row
+  /** A row's meta (all but N) as written by A0's row start or the virtual row's start, registered and written a
+    * clock later: the slot decode and the register enables start at flip-flops. Only D reads these, and only rows A
+    * has labelled (a real row W >= 32 clocks after its start; the virtual row's `aInc` waits a clock more). */
+  class MetaWrite extends Bundle {
+    val slot = UInt((log2Ceil(ND) max 1).W)
+    val virtual = Bool(); val first = Bool(); val last = Bool()
+    val len = UInt(log2Ceil(L + 2).W); val w = UInt(p.colBits.W); val wm1 = UInt(p.colBits.W)
+  }
+  val metaWrite = RegInit(0.U.asTypeOf(Valid(new MetaWrite)))
+  metaWrite.valid := false.B
+  when(metaWrite.valid) {
+    val m = metaWrite.bits
+    metaVirtual(m.slot) := m.virtual; metaFirst(m.slot) := m.first; metaLast(m.slot) := m.last
+    metaLen(m.slot) := m.len; metaW(m.slot) := m.w; metaWm1(m.slot) := m.wm1
+  }
   /** A row sequence counter's residue mod n as a wrapping register (no `seq % n`): `cur` now, `next` next cycle
     * (for read addresses issued one cycle ahead), `prev` = (seq - 1) mod n, `succ` = (seq + 1) mod n. */
   class Slot(n: Int) {
@@ -391,19 +406,21 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     }
   }
   // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row). It starts
-  // with A empty and counts as labelled a cycle later (after its meta writes, for B's and D's registered copies).
+  // with A empty and counts as labelled two cycles later (after its meta writes land, for B's and D's registered copies).
   // Its condition is taken a cycle old: once true it stays true while the frame's last row drains (no pixel comes).
   val virtualStart = needVirtual && RegNext(rowOk && bOnRow && !inAKv && !inA1v && !inA2v, false.B)
   when(virtualStart) {
     needVirtual := false.B
     for ((r, b) <- rValid.zipWithIndex) when(a2.cur === b.U) { r := 0.U }
-    metaVirtual(aD.cur) := true.B; metaFirst(aD.cur) := false.B; metaLast(aD.cur) := false.B
-    metaLen(aD.cur) := 0.U; metaW(aD.cur) := frameW; metaWm1(aD.cur) := frameW - 1.U
+    metaWrite.valid := true.B
+    metaWrite.bits.slot := aD.cur; metaWrite.bits.virtual := true.B
+    metaWrite.bits.first := false.B; metaWrite.bits.last := false.B
+    metaWrite.bits.len := 0.U; metaWrite.bits.w := frameW; metaWrite.bits.wm1 := frameW - 1.U
     metaN(aD.cur) := 0.U
     finAny(a3.cur) := false.B
     tInc()
   }
-  when(RegNext(virtualStart, false.B)) { aInc() }
+  when(RegNext(RegNext(virtualStart, false.B), false.B)) { aInc() } // after metaWrite has landed
 
   // ---- A0: run and node (a recurrence on the input alone), up pixel, up class ----
   val cnt = Reg(UInt((idW + 1).W)) // nodes allocated in this row
@@ -420,9 +437,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // the row's start bookkeeping (a cycle after T; A1 reads R_k's flags a cycle later)
   when(inA0v && inA0.rowStart) {
     val d = inA0.sl.d
-    metaVirtual(d) := false.B; metaFirst(d) := inA0.row === 0.U; metaLast(d) := inA0.row === frameH - 1.U
-    metaLen(d) := Mux(inA0.row +& (L - 1).U < frameH - 1.U, (L - 1).U, frameH - inA0.row)
-    metaW(d) := frameW; metaWm1(d) := frameW - 1.U
+    metaWrite.valid := true.B
+    metaWrite.bits.slot := d; metaWrite.bits.virtual := false.B
+    metaWrite.bits.first := inA0.row === 0.U; metaWrite.bits.last := inA0.row === frameH - 1.U
+    metaWrite.bits.len := Mux(inA0.row +& (L - 1).U < frameH - 1.U, (L - 1).U, frameH - inA0.row)
+    metaWrite.bits.w := frameW; metaWrite.bits.wm1 := frameW - 1.U
     finAny(inA0.sl.s) := false.B
     for ((r, b) <- rValid.zipWithIndex) when(inA0.sl.r === b.U) { r := 0.U }
   }
