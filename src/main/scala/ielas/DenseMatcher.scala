@@ -139,12 +139,16 @@ class DenseMatcher(p: ElasParams) extends Module {
     val row = RegInit(0.U(tag(0).row.getWidth.W))
     val fp = RegInit(false.B)
     in.ready := !full(fill)
+    val beatCol = Mux(in.bits.sof, 0.U, col)
+    val addr = beatCol(math.max(log2Ceil(depth), 1) - 1, 0)
+    // the bank write: the beat now, or with `registeredWrite` the same beat a clock later
+    val (wValid, wBank, wAddr, wData) =
+      if (registeredWrite) (RegNext(in.fire, false.B), RegNext(fill), RegNext(addr), RegNext(in.bits.data))
+      else (in.fire, fill, addr, in.bits.data)
+    for (i <- 0 until 2) when(wValid && wBank === i.U) { write(i, wAddr, wData) }
     when(in.fire) {
       val beatFp = Mux(in.bits.sof, !fp, fp)
       val beatRow = Mux(in.bits.sof, 0.U, row)
-      val beatCol = Mux(in.bits.sof, 0.U, col)
-      if (!registeredWrite)
-        for (i <- 0 until 2) when(fill === i.U) { write(i, beatCol(math.max(log2Ceil(depth), 1) - 1, 0), in.bits.data) }
       fp := beatFp
       col := beatCol + 1.U
       row := beatRow
@@ -156,13 +160,6 @@ class DenseMatcher(p: ElasParams) extends Module {
         col := 0.U
         row := beatRow + 1.U
       }
-    }
-    if (registeredWrite) {
-      val wValid = RegNext(in.fire, false.B)
-      val wBank = RegNext(fill)
-      val wAddr = RegNext(Mux(in.bits.sof, 0.U, col)(math.max(log2Ceil(depth), 1) - 1, 0))
-      val wData = RegNext(in.bits.data)
-      for (i <- 0 until 2) when(wValid && wBank === i.U) { write(i, wAddr, wData) }
     }
   }
   loader(io.planes, planeFull, planeTag, cellsMax) { (i, addr, cell) =>

@@ -120,6 +120,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
   val metaWrite = RegInit(0.U.asTypeOf(Valid(new MetaWrite)))
   metaWrite.valid := false.B
+  /** Writes a row's meta (through `metaWrite`) for the frame now in A (its width). */
+  private def writeMeta(slot: UInt, virtual: Bool, first: Bool, last: Bool, len: UInt): Unit = {
+    metaWrite.valid := true.B
+    val m = metaWrite.bits
+    m.slot := slot; m.virtual := virtual; m.first := first; m.last := last; m.len := len
+    m.w := frameW; m.wm1 := frameW - 1.U
+  }
   when(metaWrite.valid) {
     val m = metaWrite.bits
     metaVirtual(m.slot) := m.virtual; metaFirst(m.slot) := m.first; metaLast(m.slot) := m.last
@@ -412,10 +419,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   when(virtualStart) {
     needVirtual := false.B
     for ((r, b) <- rValid.zipWithIndex) when(a2.cur === b.U) { r := 0.U }
-    metaWrite.valid := true.B
-    metaWrite.bits.slot := aD.cur; metaWrite.bits.virtual := true.B
-    metaWrite.bits.first := false.B; metaWrite.bits.last := false.B
-    metaWrite.bits.len := 0.U; metaWrite.bits.w := frameW; metaWrite.bits.wm1 := frameW - 1.U
+    writeMeta(aD.cur, virtual = true.B, first = false.B, last = false.B, len = 0.U)
     metaN(aD.cur) := 0.U
     finAny(a3.cur) := false.B
     tInc()
@@ -437,11 +441,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // the row's start bookkeeping (a cycle after T; A1 reads R_k's flags a cycle later)
   when(inA0v && inA0.rowStart) {
     val d = inA0.sl.d
-    metaWrite.valid := true.B
-    metaWrite.bits.slot := d; metaWrite.bits.virtual := false.B
-    metaWrite.bits.first := inA0.row === 0.U; metaWrite.bits.last := inA0.row === frameH - 1.U
-    metaWrite.bits.len := Mux(inA0.row +& (L - 1).U < frameH - 1.U, (L - 1).U, frameH - inA0.row)
-    metaWrite.bits.w := frameW; metaWrite.bits.wm1 := frameW - 1.U
+    writeMeta(d, virtual = false.B, first = inA0.row === 0.U, last = inA0.row === frameH - 1.U,
+      len = Mux(inA0.row +& (L - 1).U < frameH - 1.U, (L - 1).U, frameH - inA0.row))
     finAny(inA0.sl.s) := false.B
     for ((r, b) <- rValid.zipWithIndex) when(inA0.sl.r === b.U) { r := 0.U }
   }
