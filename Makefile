@@ -156,10 +156,12 @@ synth: check-inputs deps-synth ## Yosys resource table for one configuration
 timing: CONFIG = small
 # Modules that do not fit the LFE5U-85F at CONFIG, placed again where they do (CONFIG:MODULE,...): at a named
 # configuration, or at one derived from a named one (TIMING_DERIVE, NAME:BASE:KEY=VALUE as `sbt "run config"` takes
-# it; written to build/configs-extra/NAME.json). At small: the dense matcher at small-c4, the whole top at small-w3
-# with cyclesPerPixel 8 (81 % of the part's LUT4s; small itself needs more than the part has).
-TIMING_DERIVE ?= $(if $(filter small,$(CONFIG)),small-w3-c8:small-w3:cyclesPerPixel=8)
-TIMING_ALSO ?= $(if $(filter small,$(CONFIG)),small-c4:DenseMatcher small-w3-c8:IElas)
+# it; written to build/configs-extra/NAME.json). At small: the dense matcher at small-c4, the whole top at a 64x48
+# small-w3 with cyclesPerPixel 8 (tiny-w3-c8, 78 % of the part's LUT4s; small needs more than the part has, and
+# small-w3-c8 at 84 % did not route).
+comma := ,
+TIMING_DERIVE ?= $(if $(filter small,$(CONFIG)),tiny-w3-c8:small-w3:cyclesPerPixel=8$(comma)maxWidth=64$(comma)maxHeight=48)
+TIMING_ALSO ?= $(if $(filter small,$(CONFIG)),small-c4:DenseMatcher tiny-w3-c8:IElas)
 timing: deps-synth ## ECP5 post-route fmax and 7-series logic-only STA per stage (CONFIG default small) -> docs/timing.md
 	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
 	@for d in $(TIMING_DERIVE); do $(call SBT_RUN,"run config $(CURDIR)/build/configs-extra $$d") || exit 1; done
