@@ -26,7 +26,9 @@ import chisel3.util._
   *    a virtual empty row closes every class.
   *  - D (output) reads row v from the delay line and sends every pixel's node through F_{v+1} .. F_{v+n},
   *    n = L - 1, or H - v at the end of the frame (then the chain ends at the virtual row, where all are closed):
-  *    one lookup per pipeline stage, 1 pixel per clock. A closed small result is removed, open is kept.
+  *    one lookup per step, 1 pixel per clock. The steps run on a ring of L + 2 units, one per map slot: step i of
+  *    row v is in unit (v + i) mod (L + 2), beside the map it reads, and hands the beat to the next unit (no
+  *    crossbar from every map to every step). A closed small result is removed, open is kept.
   *
   * Buffers (W = maxWidth, ids idW = log2(W) bits, size sW = log2(speckleSize + 1) bits, L = speckleWindowRows):
   *   delay line   (L + 4) rows x W x (dispBits + 1 + idW)
@@ -53,12 +55,12 @@ import chisel3.util._
   *  C in five (the class, its entry, the entry registered, a register per map, then the map write, two clocks after
   *  the row's end).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus 3 L + 3 clocks of chain and A's steps; at W + 2 clocks a row that is within L + 2 rows of W
+  * about W nodes), plus 3 L + 4 clocks of chain and A's steps; at W + 2 clocks a row that is within L + 2 rows of W
   * for W >= 4 L + 10, and the 2 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
   * ceil(2 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
   * Memories: every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
-  * row and column, A's pixel count, B's node), at the address a pipeline step forms for the next step, or (D's chain)
-  * from a stage register, the beat waiting a clock for its word. A read sees the writes of its own cycle: the row
+  * row and column, A's pixel count, B's node), at the address a pipeline step forms for the next step, or (D's ring)
+  * from a lane's address register, the beat waiting a clock for its word. A read sees the writes of its own cycle: the row
   * above is a transparent SyncReadMem; the others are read-first (`Mem` read into a register, so Yosys emulates no
   * transparency) and either never meet a write of their cycle (the delay line and F maps: D reads rows A has
   * finished, C writes maps no beat in the chain still needs) or forward it: K, R, S (one replica per reader; K: A0,
@@ -67,9 +69,8 @@ import chisel3.util._
   * that row). A write in the cycle after the read is forwarded by the reader (A2: the previous pixel's first touch,
   * through its touched flag, which also stands in for that pixel's R write missing from A1's word). B, C and D read
   * the per-row metadata from registers one cycle old (written at least two cycles before a row becomes theirs). Row
-  * slots are wrapping counters, not `seq % n`; D's chain beats carry their map slot one-hot (rotated by one per
-  * stage, zero once the beat applies no more maps; it selects the read ports) and as a number (it selects the read
-  * data: a binary multiplexer tree is far smaller than a one-hot AND-OR in LUTs).
+  * slots are wrapping counters, not `seq % n`; D's ring needs no slot in its beats (the unit is the slot), only the
+  * unit of the last step, where the output takes the result.
   */
 class PostProcessSpeckle(p: ElasParams) extends Module {
   private val L = p.speckleWindowRows
@@ -657,29 +658,43 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   when(c2Last) { cNext := cNext + 1.U; cIncW := true.B; cFirst := false.B; cD.inc(); c2.inc(); c3.inc(); cF.inc() }
 
   // ===== D: output chain =====
+  // A ring of NF units, unit u beside map slot u: a beat's lookup steps go from unit to unit (step i in unit
+  // (row sequence + i) mod NF), so every map is read only by its own unit, from registers beside it, and a step hands
+  // its beat to the next unit only. What a lookup does not change rides beside the ring in a shift line.
+  /** What a beat carries beside the ring (the lookups do not change it). */
   class Beat extends Bundle {
-    // one-hot: the map slot of the next lookup, (row sequence + stage + 1) mod NF; zero once the beat applies no
-    // more maps (invalid, closed or past its chain length, which is final), so it alone selects a map's read port
-    val tgt = UInt(NF.W)
-    val slot = UInt(log2Ceil(NF).W) // the same slot as a number (the lookup's multiplexer: a binary tree is smaller)
     val value = SInt(vW.W)
-    val closed = Bool()
-    val ptr = UInt(fW.W)
-    val n = UInt(log2Ceil(L + 2).W) // chain length for this row
     val sof = Bool(); val eol = Bool(); val eof = Bool(); val lastRow = Bool()
     val cols = UInt(p.colBits.W)
     val virt = Bool()
+    val endUnit = UInt((log2Ceil(NF) max 1).W) // the unit of its last step (L): (row sequence + L) mod NF
   }
-  val stages = Seq.fill(L + 1)(RegInit(0.U.asTypeOf(Valid(new Beat))))
-  val outReg = RegInit(0.U.asTypeOf(Valid(new Framed(SInt(vW.W)))))
-  val outLast = RegInit(false.B)
-  val outWidth = RegInit(0.U(p.colBits.W))
-  io.outLastRow := outLast
-  io.outWidth := outWidth
-  val advance = !outReg.valid || io.out.ready
-  io.out.valid := outReg.valid
-  io.out.bits := outReg.bits
-  when(io.out.fire) { outReg.valid := false.B }
+  /** What the lookups change: the node (the segment's size once closed) and how many maps are still to apply. */
+  class Look extends Bundle {
+    val closed = Bool()
+    val ptr = UInt(fW.W)
+    val left = UInt(log2Ceil(L + 2).W)
+  }
+  val stage0 = RegInit(0.U.asTypeOf(Valid(new Beat)))
+  val look0 = Reg(new Look)
+  val inject0 = RegInit(0.U(NF.W)) // one-hot: the unit of the beat's first step, (row sequence + 1) mod NF
+  /** An output pixel with what goes with it. */
+  class OutBeat extends Bundle {
+    val pixel = new Framed(SInt(vW.W)); val lastRow = Bool(); val cols = UInt(p.colBits.W)
+  }
+  // The output register feeds a two-entry queue, so `advance` (the enable of every chain and ring register) depends on
+  // flip-flops only: the consumer's ready reaches the queue, not thousands of enables in the same clock.
+  val outReg = RegInit(0.U.asTypeOf(Valid(new OutBeat)))
+  val outQueue = Module(new Queue(new OutBeat, 2))
+  outQueue.io.enq.valid := outReg.valid
+  outQueue.io.enq.bits := outReg.bits
+  val advance = !outReg.valid || outQueue.io.enq.ready
+  when(outQueue.io.enq.fire) { outReg.valid := false.B }
+  io.out.valid := outQueue.io.deq.valid
+  io.out.bits := outQueue.io.deq.bits.pixel
+  io.outLastRow := outQueue.io.deq.bits.lastRow
+  io.outWidth := outQueue.io.deq.bits.cols
+  outQueue.io.deq.ready := io.out.ready
 
   val dNext = RegInit(0.U(seqW.W)) // row being issued
   val dCol = RegInit(0.U(p.colBits.W))
@@ -704,88 +719,98 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     (metaVirtual(dD.succ) || dCNm1 > metaLen(dD.succ).zext), false.B)
   val dReady = RegInit(false.B)
   val issue = dReady && advance
-  dReady := Mux(issue && dRowEnd, dReadyNextRow, dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext))
+  // Two beats meet in a ring register only if they are 3d advances apart and d rows apart, d even, with the d - 1
+  // rows between them in the 3d - 1 beats between: only d = 2 across a virtual row (one beat; real rows are at least
+  // 32). C's map slots already keep a frame's first row from issuing while the row before the virtual row is in the
+  // chain when that first row's n is L - 1 (cNext <= dDone + NF - 1); with frames of fewer than L - 1 rows it is
+  // not. So after a virtual row, D issues again only once 5 more advances have passed (6 or more from the virtual
+  // beat, 7 or more from the last beat before it): at most 6 clocks per frame.
+  val cool = RegInit(0.U(3.W))
+  val coolNext = Mux(issue && dVirt, 5.U, Mux(advance && cool =/= 0.U, cool - 1.U, cool))
+  cool := coolNext
+  dReady := Mux(issue && dRowEnd, dReadyNextRow && !dVirt,
+    dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext) && coolNext === 0.U)
   // read one cycle ahead, at the row and column D holds next cycle: both candidates come from registers and the
   // issue decision only picks one (it stays off the slot x W + column adder)
   val dAddrNow = addr(dD.cur, dCol)
   val dAddrOn = Mux(dRowEnd, addr(dD.succ, 0.U), dAddrNow + 1.U)
   val word = RegNext(delay.read(Mux(issue, dAddrOn, dAddrNow)))
-  val s0 = Wire(Valid(new Beat))
-  s0.valid := issue
-  s0.bits.tgt := Mux(issue && s0.bits.value >= 0.S && dLen >= 1.U, UIntToOH(dF.succ, NF), 0.U)
-  s0.bits.slot := dF.succ
-  s0.bits.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
-  s0.bits.closed := false.B
-  s0.bits.ptr := word(idW - 1, 0)
-  s0.bits.n := dLen
-  s0.bits.sof := !dVirt && dFirst && dCol === 0.U
-  s0.bits.eol := !dVirt && dRowEnd
-  s0.bits.eof := !dVirt && dRowEnd && dLast
-  s0.bits.lastRow := dLast
-  s0.bits.cols := dWd
-  s0.bits.virt := dVirt
+  val s0 = Wire(new Beat)
+  s0.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
+  s0.sof := !dVirt && dFirst && dCol === 0.U
+  s0.eol := !dVirt && dRowEnd
+  s0.eof := !dVirt && dRowEnd && dLast
+  s0.lastRow := dLast
+  s0.cols := dWd
+  s0.virt := dVirt
+  s0.endUnit := (if (NF > 2) Mux(dF.cur >= 2.U, dF.cur - 2.U, dF.cur + (NF - 2).U) else dF.cur) // (seq + L) mod NF
+  val s0Look = Wire(new Look)
+  s0Look.closed := false.B
+  s0Look.ptr := word(idW - 1, 0)
+  s0Look.left := Mux(s0.value >= 0.S, dLen, 0.U) // stage i applies F_{seq + i} while i <= n
   when(issue) {
     when(dRowEnd) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dColP1 }
   }
   when(issue) { dColP1 := Mux(dRowEnd, 1.U, dColP1 + 1.U) }
   // (the issue selects last: its three candidates come from registers)
   dRowEnd := Mux(issue, Mux(dRowEnd, metaVirtual(dD.succ), dColP1 === dWm1), Mux(dCol === 0.U, metaVirtual(dD.cur), dRowEnd))
-  // stage i (1..L) applies F_{seq + i} when i <= n (the map read is described below).
-  private def target(b: Beat, k: Int): Bool = b.tgt(k)
-  private def applies(i: Int, b: Beat): Bool = b.value >= 0.S && !b.closed && i.U <= b.n
-  private val portData: Seq[Seq[UInt]] = Seq.fill(NF)(Seq.fill(2)(Wire(UInt((1 + fW).W))))
-  private def lookup(i: Int, b: Beat): Beat = {
-    val r = Wire(new Beat)
+
+  /** One lookup step of a lane: apply the map's entry while maps are left and the segment is open. */
+  private def lookup(b: Look, e: UInt): Look = {
+    val r = Wire(new Look)
     r := b
-    val apply = applies(i, b)
-    val e = VecInit(portData.map(_(i % 2)))(b.slot)
-    when(apply) { r.closed := e(fW); r.ptr := e(fW - 1, 0) }
-    // the next stage's map, one slot on, while the chain lasts (a beat closed here keeps its slot: its reads are
-    // unused, and a slot held by position never meets another beat's, see `waits`; the closed bit from the lookup
-    // stays off the read ports' selects)
-    val chainGoesOn = b.value >= 0.S && (i + 1).U <= b.n
-    val rotated = if (NF > 1) Cat(b.tgt(NF - 2, 0), b.tgt(NF - 1)) else b.tgt
-    r.tgt := Mux(chainGoesOn, rotated, 0.U)
-    r.slot := Mux(b.slot === (NF - 1).U, 0.U, b.slot + 1.U)
+    when(b.left =/= 0.U) {
+      r.left := b.left - 1.U
+      when(!b.closed) { r.closed := e(fW); r.ptr := e(fW - 1, 0) }
+    }
     r
   }
-  // Each lookup takes three clocks, so that no map read address depends on a map read and the long nets are each
-  // in a clock of their own: stage i - 1's register drives the map's address multiplexer, whose result is registered
-  // beside the map (the beat waits in addrWaits(i - 1)); the map reads into a register (the beat waits in
-  // waits(i - 1)); the lookup forms stage i. The address and read registers are enabled by `advance`, so they hold
-  // the beat's address and word while the chain stalls. The readers of a port are then every third beat of the
-  // stream: two of one port and one map (rows r and r + d at stages d apart, d even) have at most 3d - 1 beats
-  // between them, holding rows r + 1 .. r + d - 1, so they never meet for frames at least 6 wide (a frame's virtual
-  // row is one beat, but the last row before it applies no map beyond stage 1).
-  val addrWaits = Seq.fill(L)(RegInit(0.U.asTypeOf(Valid(new Beat))))
-  val waits = Seq.fill(L)(RegInit(0.U.asTypeOf(Valid(new Beat))))
+  // Each unit has two lanes, one per read port of its map: a beat's odd steps run in lane 1, its even steps in lane 0,
+  // so the two beats that can use one map in one clock (adjacent steps of rows r and r + 1) never share a port. A
+  // step takes three advances, each in a register of the lane: the beat's address (aw: the map reads at aw's node),
+  // the beat beside the word read (wt), the lookup's result (st), which the next unit's other lane takes. A beat
+  // enters lane 1 of its first step's unit from stage0. The registers hold stale beats where no beat is (every
+  // register moves at every advance; the output takes a beat's result from its last step's unit, not a valid bit).
+  class Lane(u: Int, q: Int) {
+    val aw = Reg(new Look).suggestName(s"unit${u}_lane${q}_aw")
+    val wt = Reg(new Look).suggestName(s"unit${u}_lane${q}_wt")
+    val st = Reg(new Look).suggestName(s"unit${u}_lane${q}_st")
+    val word = Wire(UInt((1 + fW).W)).suggestName(s"unit${u}_lane${q}_word")
+  }
+  val units = Seq.tabulate(NF, 2)((u, q) => new Lane(u, q))
   when(advance) {
-    stages(0) := s0
-    for (i <- 1 to L) {
-      addrWaits(i - 1) := stages(i - 1)
-      waits(i - 1) := addrWaits(i - 1)
-      stages(i).valid := waits(i - 1).valid
-      stages(i).bits := lookup(i, waits(i - 1).bits)
-      when(!waits(i - 1).valid) { stages(i).bits.tgt := 0.U }
+    stage0.valid := issue
+    stage0.bits := s0
+    look0 := s0Look
+    inject0 := Mux(issue, UIntToOH(dF.succ, NF), 0.U)
+    for (u <- 0 until NF; q <- 0 until 2) {
+      val lane = units(u)(q)
+      val from = units((u + NF - 1) % NF)(1 - q).st
+      lane.aw := (if (q == 1) Mux(inject0(u), look0, from) else from)
+      lane.wt := lane.aw
+      lane.st := lookup(lane.wt, lane.word)
     }
   }
-  for ((m, b) <- fMaps.zipWithIndex; q <- 0 until 2) {
-    val users = (1 to L).filter(_ % 2 == q)
-    val sel = users.map(i => target(stages(i - 1).bits, b)) // (zero unless the beat is valid and applies F here)
-    val address = if (users.isEmpty) 0.U else PriorityMux(sel :+ true.B, users.map(i => stages(i - 1).bits.ptr(idW - 1, 0)) :+ 0.U)
-    portData(b)(q) := (if (users.isEmpty) 0.U else RegEnable(m.read(RegEnable(address, advance)), advance))
-  }
+  for ((m, u) <- fMaps.zipWithIndex; q <- 0 until 2)
+    units(u)(q).word := RegEnable(m.read(units(u)(q).aw.ptr(idW - 1, 0)), advance)
+  // The beat's last step (L) ends in units(endUnit)(L % 2).st, 3 L advances after stage0, with its shift-line part.
+  val endValid = ShiftRegister(stage0.valid, 3 * L, false.B, advance)
+  val endBeat = ShiftRegister(stage0.bits, 3 * L, advance)
+  // one more register: the ring's NF:1 result multiplexer has a clock of its own
+  val lastValid = RegEnable(endValid, false.B, advance)
+  val lastBeat = RegEnable(endBeat, advance)
+  val lastLook = RegEnable(VecInit(units.map(_(L % 2).st))(endBeat.endUnit), advance)
   when(advance) {
-    val last = stages(L)
-    when(last.valid) {
-      val b = last.bits
-      val remove = b.value >= 0.S && b.closed && b.ptr < cap.U
+    when(lastValid) {
+      val b = lastBeat
+      val remove = b.value >= 0.S && lastLook.closed && lastLook.ptr < cap.U
       when(!b.virt) {
         outReg.valid := true.B
-        outReg.bits.data := Mux(remove, -1.S, b.value)
-        outReg.bits.sof := b.sof; outReg.bits.eol := b.eol; outReg.bits.eof := b.eof
-        outLast := b.lastRow
-        outWidth := b.cols
+        val o = outReg.bits
+        o.pixel.data := Mux(remove, -1.S, b.value)
+        o.pixel.sof := b.sof; o.pixel.eol := b.eol; o.pixel.eof := b.eof
+        o.lastRow := b.lastRow
+        o.cols := b.cols
       }
       when(b.virt || b.eol) { dDone := dDone + 1.U; dDoneIncW := true.B }
     }
