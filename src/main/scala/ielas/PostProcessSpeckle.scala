@@ -195,16 +195,18 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     private val waddr = addr(wslot, wx)
     when(wen) { mems.foreach(_.write(waddr, wdata)) }
     def write(slot: UInt, x: UInt, d: UInt): Unit = { wen := true.B; wslot := slot; wx := x; wdata := d }
-    def read(reader: Int, slot: UInt, x: UInt): UInt = {
-      val (hit, written, word) = readParts(reader, slot, x)
+    def read(reader: Int, slot: UInt, x: UInt, xIs: UInt => Bool = null): UInt = {
+      val (hit, written, word) = readParts(reader, slot, x, xIs)
       Mux(hit, written, word)
     }
     /** The read as (the write of its cycle hit, that write's data, the word read): a reader that computes from the
-      * word can compute from both and select after (the block RAM's output then meets no multiplexer first). */
-    def readParts(reader: Int, slot: UInt, x: UInt): (Bool, UInt, UInt) = {
+      * word can compute from both and select after (the block RAM's output then meets no multiplexer first).
+      * `xIs(w)` is `x === w`, for a reader whose x is a selection of values: compared at each value and selected after,
+      * so a block-RAM word among them meets the compare first. */
+    def readParts(reader: Int, slot: UInt, x: UInt, xIs: UInt => Bool = null): (Bool, UInt, UInt) = {
       val word = Reg(UInt(width.W)); word := mems(reader).read(addr(slot, x))
       val written = Reg(UInt(width.W)); written := wdata
-      val hit = RegNext(wen && wslot === slot && wx === x, false.B)
+      val hit = RegNext(wen && wslot === slot && (if (xIs == null) wx === x else xIs(wx)), false.B)
       (hit, written, word)
     }
   }
@@ -363,6 +365,12 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val bCanStart = !bBusy && (dAB.is(_ >= _, 1) || dAB.is(_ === _, 0) && aLastInA2) && dCB.is(_ >= _, -1)
   val bActive = bBusy || bCanStart
   val bComputed = Wire(UInt(idW.W)) // B2's K entry of this cycle
+  // B2's sources of that entry (assigned in B), for bComputedIs
+  val b2Zero = Wire(Bool()); val b2Self = Wire(Bool()); val b2PxW = Wire(UInt(idW.W))
+  val kbHit = Wire(Bool()); val kbWritten = Wire(UInt(idW.W)); val kbWord = Wire(UInt(idW.W))
+  /** bComputed === w, compared at each of its sources (the block-RAM word first) */
+  def bComputedIs(w: UInt): Bool =
+    Mux(b2Zero, w === 0.U, Mux(b2Self, w === b2PxW, Mux(kbHit, w === kbWritten, w === kbWord)))
   val b1v = Wire(Bool()) // B1 holds a node of its row (B2 writes it next cycle)
   val b2v = RegInit(false.B) // B2 computes and writes K_k[b2x] now
   val b2x = Reg(UInt(idW.W)); val b2Slot = Reg(UInt(2.W))
@@ -438,7 +446,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val upVal = upWord(vW + idW - 1, idW).asSInt
   val upId = upWord(idW - 1, 0)
   // K_{k-1}[upId] is read now and used in AK (below)
-  val kWordA = kTab.read(0, inA0.sl.sPrev, upId)
+  val (kaHit, kaWritten, kaWord) = kTab.readParts(0, inA0.sl.sPrev, upId)
+  val kWordA = Mux(kaHit, kaWritten, kaWord)
   // the row's start bookkeeping (a cycle after T; A1 reads R_k's flags a cycle later)
   when(inA0v && inA0.rowStart) {
     val d = inA0.sl.d
@@ -467,10 +476,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // first cycle on the row) or is past it: the word read in A0 holds K_{k-1}[upId], or B2 computes it now (bypass).
   // While a pixel of row k is in AK, B cannot have started row k, so B2 is on row k - 1 or done with it.
   // the compares are made a cycle earlier (in A0, against B1: B2 holds next cycle what B1 holds now)
-  val cls = Mux(RegNext(upId === 0.U), 0.U, Mux(RegNext(b1v && b3.cur === inA0.sl.sPrev &&
-    bx === upId, false.B), bComputed, kWordA))
-  val rWordA = rTab.read(0, inAK.sl.r, cls)
-  val sPrevWord = sTab.read(0, inAK.sl.sPrev, cls)
+  val clsZero = RegNext(upId === 0.U)
+  val clsFromB = RegNext(b1v && b3.cur === inA0.sl.sPrev && bx === upId, false.B)
+  val cls = Mux(clsZero, 0.U, Mux(clsFromB, bComputed, kWordA))
+  /** cls === w, compared at each of cls's sources (the R and S reads' write forwarding) */
+  def clsIs(w: UInt): Bool = Mux(clsZero, w === 0.U, Mux(clsFromB, bComputedIs(w), Mux(kaHit, w === kaWritten, w === kaWord)))
+  val rWordA = rTab.read(0, inAK.sl.r, cls, clsIs)
+  val sPrevWord = sTab.read(0, inAK.sl.sPrev, cls, clsIs)
   inA1v := inAKv
   inA1.sl := inAK.sl
   inA1.rowStart := inAK.rowStart; inA1.lastCol := inAK.lastCol; inA1.valid := inAK.valid; inA1.newRun := inAK.newRun
@@ -579,13 +591,17 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
   // B1 (node bx): P_k[bx] is here; K_k[P_k[bx]] is read. B2 (node b2x, a cycle later) computes and writes K_k[b2x];
   // P_k[x] < x, so the read sees B2's write of node x - 1 made in the same cycle.
-  val kWordB = kTab.read(1, bKslot, bPx)
+  val kbParts = kTab.readParts(1, bKslot, bPx)
+  kbHit := kbParts._1; kbWritten := kbParts._2; kbWord := kbParts._3
+  val kWordB = Mux(kbHit, kbWritten, kbWord)
   val b2Px = RegNext(bPx)
+  b2PxW := b2Px
   b1v := bActive && bx < bN
   b2v := b1v
   b2x := bx(idW - 1, 0); b2Slot := bKslot
   // x = 0 and P_k[x] = x decided in B1 (registers into B2's multiplexer)
-  bComputed := Mux(RegNext(bx === 0.U), 0.U, Mux(RegNext(bPx === bx(idW - 1, 0)), b2Px, kWordB))
+  b2Zero := RegNext(bx === 0.U); b2Self := RegNext(bPx === bx(idW - 1, 0))
+  bComputed := Mux(b2Zero, 0.U, Mux(b2Self, b2Px, kWordB))
   when(b2v) { kTab.write(b2Slot, b2x, bComputed) }
   // bx + 1 >= bN (B1 holds its row's last node) without a compare after bN's multiplexer: a row's first node (bx = 0)
   // is its last when bN <= 1, a flag per slot read like bN; a later node's was compared a cycle ahead (bN stays while
@@ -624,8 +640,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val cRbuf = c2.cur
   val cSbuf = c3.prev
   // C1
-  val rWordC = rTab.read(1, cRbuf, c1Class)
-  val sWordC = sTab.read(2, cSbuf, c1Class)
+  def c1ClassIs(w: UInt): Bool = Mux(c1Hit, w === c1Written, w === c1Read)
+  val rWordC = rTab.read(1, cRbuf, c1Class, c1ClassIs)
+  val sWordC = sTab.read(2, cSbuf, c1Class, c1ClassIs)
   val c2v = RegNext(c1v, false.B)
   c2Last := c1Last
   val c2x = RegNext(c1x)
@@ -634,7 +651,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val c2OpenGroups = Reg(UInt(rvC.count.W))
   c2OpenGroups := Mux(c1Hit, rvC.groups(cRbuf, c1Written), rvC.groups(cRbuf, c1Read))
   val c2Class = RegNext(c1Class)
-  val c2Fin = RegNext(finAny(cSbuf) && finTop(cSbuf) === c1Class)
+  val c2Fin = RegNext(finAny(cSbuf) && c1ClassIs(finTop(cSbuf)))
   // C2
   val c2Open = rvC.pick(c2OpenGroups, c2Class)
   val cEntry = Mux(c2Open, Cat(0.U(1.W), rWordC.pad(fW)), Cat(1.U(1.W), Mux(c2Fin, finSize(cSbuf), sWordC).pad(fW)))
