@@ -699,14 +699,19 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   class OutBeat extends Bundle {
     val pixel = new Framed(SInt(vW.W)); val lastRow = Bool(); val cols = UInt(p.colBits.W)
   }
-  // The output register feeds a two-entry queue, so `advance` (the enable of every chain and ring register) depends on
-  // flip-flops only: the consumer's ready reaches the queue, not thousands of enables in the same clock.
+  // The chain never stalls: a beat reaches the output register 3 L + 2 clocks after stage0 and goes on into a queue
+  // with room for every beat issued and not yet taken (D issues only with a credit), so no chain or ring register has
+  // an enable, and the consumer's ready reaches only the queue and the credit count, not thousands of enables.
+  // the beats in flight at full rate: issued to taken is 3 L + 5 clocks (stage0, 3 L, last, outReg, the queue), and one
+  private val outEntries = 3 * L + 6
   val outReg = RegInit(0.U.asTypeOf(Valid(new OutBeat)))
-  val outQueue = Module(new Queue(new OutBeat, 2))
+  outReg.valid := false.B
+  val outQueue = Module(new Queue(new OutBeat, outEntries))
   outQueue.io.enq.valid := outReg.valid
   outQueue.io.enq.bits := outReg.bits
-  val advance = !outReg.valid || outQueue.io.enq.ready
-  when(outQueue.io.enq.fire) { outReg.valid := false.B }
+  assert(!outReg.valid || outQueue.io.enq.ready, "speckle: output queue full (credits)")
+  val owed = RegInit(0.U(log2Ceil(outEntries + 1).W)) // beats issued (not virtual) and not yet taken
+  val creditOk = RegInit(true.B) // owed < outEntries
   io.out.valid := outQueue.io.deq.valid
   io.out.bits := outQueue.io.deq.bits.pixel
   io.outLastRow := outQueue.io.deq.bits.lastRow
@@ -735,15 +740,18 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dReadyNextRow = RegNext(!dNextIncW && dAN >= 2.S &&
     (metaVirtual(dD.succ) || dCNm1 > metaLen(dD.succ).zext), false.B)
   val dReady = RegInit(false.B)
-  val issue = dReady && advance
-  // Two beats meet in a ring register only if they are 3d advances apart and d rows apart, d even, with the d - 1
+  val issue = dReady && creditOk
+  val owedNext = owed + (issue && !dVirt).asUInt - outQueue.io.deq.fire.asUInt
+  owed := owedNext
+  creditOk := owedNext < outEntries.U
+  // Two beats meet in a ring register only if they are 3d clocks apart and d rows apart, d even, with the d - 1
   // rows between them in the 3d - 1 beats between: only d = 2 across a virtual row (one beat; real rows are at least
   // 32). C's map slots already keep a frame's first row from issuing while the row before the virtual row is in the
   // chain when that first row's n is L - 1 (cNext <= dDone + NF - 1); with frames of fewer than L - 1 rows it is
-  // not. So after a virtual row, D issues again only once 5 more advances have passed (6 or more from the virtual
+  // not. So after a virtual row, D issues again only once 5 more clocks have passed (6 or more from the virtual
   // beat, 7 or more from the last beat before it): at most 6 clocks per frame.
   val cool = RegInit(0.U(3.W))
-  val coolNext = Mux(issue && dVirt, 5.U, Mux(advance && cool =/= 0.U, cool - 1.U, cool))
+  val coolNext = Mux(issue && dVirt, 5.U, Mux(cool =/= 0.U, cool - 1.U, cool))
   cool := coolNext
   dReady := Mux(issue && dRowEnd, dReadyNextRow && !dVirt,
     dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext) && coolNext === 0.U)
@@ -784,10 +792,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
   // Each unit has two lanes, one per read port of its map: a beat's odd steps run in lane 1, its even steps in lane 0,
   // so the two beats that can use one map in one clock (adjacent steps of rows r and r + 1) never share a port. A
-  // step takes three advances, each in a register of the lane: the beat's address (aw: the map reads at aw's node),
+  // step takes three clocks, each in a register of the lane: the beat's address (aw: the map reads at aw's node),
   // the beat beside the word read (wt), the lookup's result (st), which the next unit's other lane takes. A beat
   // enters lane 1 of its first step's unit from stage0. The registers hold stale beats where no beat is (every
-  // register moves at every advance; the output takes a beat's result from its last step's unit, not a valid bit).
+  // register moves at every clock; the output takes a beat's result from its last step's unit, not a valid bit).
   class Lane(u: Int, q: Int) {
     val aw = Reg(new Look).suggestName(s"unit${u}_lane${q}_aw")
     val wt = Reg(new Look).suggestName(s"unit${u}_lane${q}_wt")
@@ -795,42 +803,38 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val word = Wire(UInt((1 + fW).W)).suggestName(s"unit${u}_lane${q}_word")
   }
   val units = Seq.tabulate(NF, 2)((u, q) => new Lane(u, q))
-  when(advance) {
-    stage0.valid := issue
-    stage0.bits := s0
-    look0 := s0Look
-    inject0 := Mux(issue, UIntToOH(dF.succ, NF), 0.U)
-    for (u <- 0 until NF; q <- 0 until 2) {
-      val lane = units(u)(q)
-      val from = units((u + NF - 1) % NF)(1 - q).st
-      lane.aw := (if (q == 1) Mux(inject0(u), look0, from) else from)
-      lane.wt := lane.aw
-      lane.st := lookup(lane.wt, lane.word)
-    }
+  stage0.valid := issue
+  stage0.bits := s0
+  look0 := s0Look
+  inject0 := Mux(issue, UIntToOH(dF.succ, NF), 0.U)
+  for (u <- 0 until NF; q <- 0 until 2) {
+    val lane = units(u)(q)
+    val from = units((u + NF - 1) % NF)(1 - q).st
+    lane.aw := (if (q == 1) Mux(inject0(u), look0, from) else from)
+    lane.wt := lane.aw
+    lane.st := lookup(lane.wt, lane.word)
   }
   for ((m, u) <- fMaps.zipWithIndex; q <- 0 until 2)
-    units(u)(q).word := RegEnable(m.read(units(u)(q).aw.ptr(idW - 1, 0)), advance)
-  // The beat's last step (L) ends in units(endUnit)(L % 2).st, 3 L advances after stage0, with its shift-line part.
-  val endValid = ShiftRegister(stage0.valid, 3 * L, false.B, advance)
-  val endBeat = ShiftRegister(stage0.bits, 3 * L, advance)
+    units(u)(q).word := RegNext(m.read(units(u)(q).aw.ptr(idW - 1, 0)))
+  // The beat's last step (L) ends in units(endUnit)(L % 2).st, 3 L clocks after stage0, with its shift-line part.
+  val endValid = ShiftRegister(stage0.valid, 3 * L, false.B, true.B)
+  val endBeat = ShiftRegister(stage0.bits, 3 * L)
   // one more register: the ring's NF:1 result multiplexer has a clock of its own
-  val lastValid = RegEnable(endValid, false.B, advance)
-  val lastBeat = RegEnable(endBeat, advance)
-  val lastLook = RegEnable(VecInit(units.map(_(L % 2).st))(endBeat.endUnit), advance)
-  when(advance) {
-    when(lastValid) {
-      val b = lastBeat
-      val remove = b.value >= 0.S && lastLook.closed && lastLook.ptr < cap.U
-      when(!b.virt) {
-        outReg.valid := true.B
-        val o = outReg.bits
-        o.pixel.data := Mux(remove, -1.S, b.value)
-        o.pixel.sof := b.sof; o.pixel.eol := b.eol; o.pixel.eof := b.eof
-        o.lastRow := b.lastRow
-        o.cols := b.cols
-      }
-      when(b.virt || b.eol) { dDone := dDone + 1.U; dDoneIncW := true.B }
+  val lastValid = RegNext(endValid, false.B)
+  val lastBeat = RegNext(endBeat)
+  val lastLook = RegNext(VecInit(units.map(_(L % 2).st))(endBeat.endUnit))
+  when(lastValid) {
+    val b = lastBeat
+    val remove = b.value >= 0.S && lastLook.closed && lastLook.ptr < cap.U
+    when(!b.virt) {
+      outReg.valid := true.B
+      val o = outReg.bits
+      o.pixel.data := Mux(remove, -1.S, b.value)
+      o.pixel.sof := b.sof; o.pixel.eol := b.eol; o.pixel.eof := b.eof
+      o.lastRow := b.lastRow
+      o.cols := b.cols
     }
+    when(b.virt || b.eol) { dDone := dDone + 1.U; dDoneIncW := true.B }
   }
 }
 
