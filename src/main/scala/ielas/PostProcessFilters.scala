@@ -485,7 +485,11 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
   val v3 = stValid(v2); val x3 = st(x2); val r3 = st(r2); val f3 = st(f2)
   val w3 = st(VecInit(weights))
   // 4: pair sums of the weighted taps and of the weights
-  val n3 = x3.zip(w3).map { case (xi, wi) => Mux(wi === 0.U, 0.U, xi.asUInt(15, 0) * wi) }
+  // (a weight is 0, 2 or 4: a shift and a select, not a multiplier)
+  val n3 = x3.zip(w3).map { case (xi, wi) =>
+    val x = xi.asUInt(15, 0)
+    Mux(wi(2), Cat(x, 0.U(2.W)), Mux(wi(1), Cat(x, 0.U(1.W)), 0.U))
+  }
   val v4 = stValid(v3); val c4 = st(x3(4)); val r4 = st(r3); val f4 = st(f3)
   val n4 = st(VecInit(n3.grouped(2).map(g => g(0) +& g(1)).toSeq))
   val w4 = st(VecInit(w3.grouped(2).map(g => g(0) +& g(1)).toSeq))
