@@ -36,7 +36,7 @@ import chisel3.util._
   *   P, R         2 rows x W x idW each (R: 2 replicas);  K, S  3 rows x W x idW / sW (3 replicas each)
   *   R valid flags 2 x W bits (registers)
   *   row above    2^(colBits + 1) x (dispBits + 1 + idW) (A's last pixels again, >= 2 rows)
-  *   output queue 3 L + 6 x (dispBits + 1 + 4 + colBits) (D's chain never stalls; D issues with a credit)
+  *   output queue 3 L + 8 x (dispBits + 1 + 4 + colBits) (D's chain never stalls; D issues with a credit)
   * A is a pipeline of five steps, so that no step follows a chain of lookups (each about 6 LUT levels):
   *  - T takes the input beat into registers and decides whether it joins the left pixel's run; ready depends on
   *    registers only, not on the beat.
@@ -703,7 +703,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // The chain never stalls: a beat reaches the output register 3 L + 2 clocks after stage0 and goes on into a queue
   // with room for every beat issued and not yet taken (D issues only with a credit), so no chain or ring register has
   // an enable, and the consumer's ready reaches only the queue and the credit count, not thousands of enables.
-  // the beats in flight at full rate: issued to taken is 3 L + 5 clocks (stage0, 3 L, last, outReg, the queue), and one
+  // the beats in flight at full rate: issued to taken is 3 L + 5 clocks (stage0, 3 L, last, outReg, the queue), the
+  // credit comes back a clock after the take, and one more
   private val outEntries = PostProcessSpeckle.outEntries(p)
   val outReg = RegInit(0.U.asTypeOf(Valid(new OutBeat)))
   outReg.valid := false.B
@@ -742,7 +743,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     (metaVirtual(dD.succ) || dCNm1 > metaLen(dD.succ).zext), false.B)
   val dReady = RegInit(false.B)
   val issue = dReady && creditOk
-  val owedNext = owed + (issue && !dVirt).asUInt - outQueue.io.deq.fire.asUInt
+  // a taken beat returns its credit a clock later (registered: the queue's pointer compare stays off the count)
+  val takenLate = RegNext(outQueue.io.deq.fire, false.B)
+  val owedNext = owed + (issue && !dVirt).asUInt - takenLate.asUInt
   owed := owedNext
   creditOk := owedNext < outEntries.U
   // Two beats meet in a ring register only if they are 3d clocks apart and d rows apart, d even, with the d - 1
@@ -842,8 +845,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 object PostProcessSpeckle {
   def delayRows(p: ElasParams): Int = p.speckleWindowRows + 4
   def mapRows(p: ElasParams): Int = p.speckleWindowRows + 2
-  /** The output queue's entries: 3 L + 6 (see `outEntries` in the class). */
-  def outEntries(p: ElasParams): Int = 3 * p.speckleWindowRows + 6
+  /** The output queue's entries: 3 L + 8 (see `outEntries` in the class). */
+  def outEntries(p: ElasParams): Int = 3 * p.speckleWindowRows + 8
   def idBits(p: ElasParams): Int = log2Ceil(p.maxWidth)
   def sizeBits(p: ElasParams): Int = log2Ceil(p.speckleSize + 1) max 1
   /** Rows of latency (input row -> output row): L + 2 rows of W, plus the 2 clocks per row the engines take beyond
@@ -868,6 +871,6 @@ object PostProcessSpeckle {
         "saturating segment sizes, 3 rows; one read-first Mem 1R1W (block RAM, write forwarded) per reader (AK, A1, C1)"),
       MemoryUse("Speckle", "Rvalid", 2, w, "touched-class flags (registers)"),
       MemoryUse("Speckle", "outQueue", outEntries(p), p.signedDispBits + 4 + p.colBits,
-        "output queue, 3 L + 6 entries (the chain never stalls: D issues with a credit); Chisel Queue (LUT-RAM)"))
+        "output queue, 3 L + 8 entries (the chain never stalls: D issues with a credit); Chisel Queue (LUT-RAM)"))
   }
 }
