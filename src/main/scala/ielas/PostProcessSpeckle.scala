@@ -703,8 +703,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // The chain never stalls: a beat reaches the output register 3 L + 2 clocks after stage0 and goes on into a queue
   // with room for every beat issued and not yet taken (D issues only with a credit), so no chain or ring register has
   // an enable, and the consumer's ready reaches only the queue and the credit count, not thousands of enables.
-  // the beats in flight at full rate: issued to taken is 3 L + 5 clocks (stage0, 3 L, last, outReg, the queue), the
-  // credit comes back a clock after the take, and one more
+  // Its size: at full rate a beat is owed for 3 L + 5 clocks (stage0, 3 L, last, outReg, the queue), its credit comes
+  // back a clock after the take, and one more: 3 L + 8 (fewer would leave bubbles, never lose a beat).
   private val outEntries = PostProcessSpeckle.outEntries(p)
   val outReg = RegInit(0.U.asTypeOf(Valid(new OutBeat)))
   outReg.valid := false.B
