@@ -115,11 +115,20 @@ class SupportMatcher(p: ElasParams) extends Module {
   val centreRow = new RowTracker(0)
   val bottomRow = new RowTracker(-r)
 
-  // The slot of lattice row v is free once the walker has left lattice row v - slots*step.
-  val topSlotFree = walkV +& (slots * step).U > topRow.v
+  // io.in.ready drives the enables of the register slice in front, so it is formed from registers only: whether the
+  // row being captured is one the top tracker waits on (constant within a row, set at each row's start), and whether
+  // that row's slot is free. The slot of lattice row v is free once the walker has left lattice row v - slots*step;
+  // `topSlotFree` is that compare a clock late. The walker only moves forward, so a late "free" stays true, except
+  // after topRow.v moves or a frame starts: then it reads "not free" for a clock. (No bubble at a row's first pixel:
+  // with candidateStep >= 2 the row after a top-row advance is never a top row.)
+  val topHitRow = RegInit(false.B)
+  val topSlotFree = RegInit(false.B)
   val startFrame = io.in.valid && io.in.bits.sof && !capBusy && !walkBusy
-  io.in.ready := Mux(capBusy, !topRow.hit || topSlotFree, !io.in.bits.sof || !walkBusy)
+  io.in.ready := Mux(capBusy, !topHitRow || topSlotFree, !io.in.bits.sof || !walkBusy)
   val capture = io.in.fire && capBusy
+  val endOfLine = capX === width - 1.U
+  topSlotFree := walkV +& (slots * step).U > topRow.v && !startFrame && !(capture && endOfLine && topRow.rowIs)
+  assert(!capBusy || topHitRow === topRow.hit, "SupportMatcher: the registered top-row hit differs from topRow.hit")
 
   when(startFrame) {
     width := io.frameWidth
@@ -130,12 +139,14 @@ class SupportMatcher(p: ElasParams) extends Module {
     capX := 1.U
     capY := 0.U
     Seq(topRow, centreRow, bottomRow).foreach(_.restart())
+    topHitRow := (r == firstRow).B && (firstRow + margin).U < io.frameHeight // topRow.hit at capY = 0
   }
-  val endOfLine = capX === width - 1.U
   when(capture) {
     capX := Mux(endOfLine, 0.U, capX + 1.U)
     when(endOfLine) {
       capY := capY + 1.U
+      val topVNext = Mux(topRow.rowIs, topRow.v + step.U, topRow.v)
+      topHitRow := ((capY + 1.U).zext +& r.S) === topVNext.zext && topVNext +& margin.U < height
       when(capY === height - 1.U) { capBusy := false.B }
       Seq(topRow, centreRow, bottomRow).foreach(t => when(t.rowIs) { t.advance() })
     }
