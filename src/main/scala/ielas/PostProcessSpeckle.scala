@@ -65,7 +65,8 @@ import chisel3.util._
   * above is a transparent SyncReadMem; the others are read-first (`Mem` read into a register, so Yosys emulates no
   * transparency) and either never meet a write of their cycle (the delay line and F maps: D reads rows A has
   * finished, C writes maps no beat in the chain still needs) or forward it: K, R, S (one replica per reader; K: A0,
-  * B1, C0; R: AK, C1; S: AK, A1, C1) compare the write's slot and entry with the read's, P (written a cycle after A
+  * B1, C0; R: AK, C1; S: AK, A1, C1) compare the write's slot and entry with the read's (a cycle later, between
+  * registers, when the word arrives), P (written a cycle after A
   * asks, from registers) forwards that write and the one asked for this cycle (A's last pixels write while B starts
   * that row). A write in the cycle after the read is forwarded by the reader (A2: the previous pixel's first touch,
   * through its touched flag, which also stands in for that pixel's R write missing from A1's word). B, C and D read
@@ -196,18 +197,23 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     private val waddr = addr(wslot, wx)
     when(wen) { mems.foreach(_.write(waddr, wdata)) }
     def write(slot: UInt, x: UInt, d: UInt): Unit = { wen := true.B; wslot := slot; wx := x; wdata := d }
-    def read(reader: Int, slot: UInt, x: UInt, xIs: UInt => Bool = null): UInt = {
-      val (hit, written, word) = readParts(reader, slot, x, xIs)
+    def read(reader: Int, slot: UInt, x: UInt): UInt = {
+      val (hit, written, word) = readParts(reader, slot, x)
       Mux(hit, written, word)
     }
+    // the write a cycle later, for the forwarding compares
+    private val wenLate = RegNext(wen, false.B)
+    private val wslotLate = RegNext(wslot)
+    private val wxLate = RegNext(wx)
     /** The read as (the write of its cycle hit, that write's data, the word read): a reader that computes from the
       * word can compute from both and select after (the block RAM's output then meets no multiplexer first).
-      * `xIs(w)` is `x === w`, for a reader whose x is a selection of values: compared at each value and selected after,
-      * so a block-RAM word among them meets the compare first. */
-    def readParts(reader: Int, slot: UInt, x: UInt, xIs: UInt => Bool = null): (Bool, UInt, UInt) = {
+      * The hit is compared a cycle after the read, in the cycle the word arrives, between registers (the write's
+      * address then, the read's address): both addresses may come from a block RAM or a decision, and the compare
+      * of a read address formed from a block-RAM word in the read's own cycle was the speckle stage's critical path. */
+    def readParts(reader: Int, slot: UInt, x: UInt): (Bool, UInt, UInt) = {
       val word = Reg(UInt(width.W)); word := mems(reader).read(addr(slot, x))
       val written = Reg(UInt(width.W)); written := wdata
-      val hit = RegNext(wen && wslot === slot && (if (xIs == null) wx === x else xIs(wx)), false.B)
+      val hit = wenLate && wslotLate === RegNext(slot) && wxLate === RegNext(x)
       (hit, written, word)
     }
   }
@@ -225,10 +231,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val lo: Int = idW - math.min(hiBits, idW)
     val count: Int = (W + (1 << lo) - 1) >> lo
     def groups(buf: UInt, idx: UInt): UInt = {
-      def part(v: UInt): Seq[UInt] = (0 until W by (1 << lo)).map(g => v(math.min(W, g + (1 << lo)) - 1, g))
-      VecInit(part(rValid(0)).zip(part(rValid(1))).map { case (g0, g1) =>
-        Mux(buf === 1.U, bitAt(g1, idx), bitAt(g0, idx))
-      }).asUInt
+      // the buffer is chosen first: it is a register, the index may come from a block RAM
+      val flags = Mux(buf === 1.U, rValid(1), rValid(0))
+      VecInit((0 until W by (1 << lo)).map(g => bitAt(flags(math.min(W, g + (1 << lo)) - 1, g), idx))).asUInt
     }
     def pick(groups: UInt, idx: UInt): Bool =
       if (count == 1) groups(0) else VecInit(groups.asBools.take(count))(idx(idW - 1, lo))
@@ -366,12 +371,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val bCanStart = !bBusy && (dAB.is(_ >= _, 1) || dAB.is(_ === _, 0) && aLastInA2) && dCB.is(_ >= _, -1)
   val bActive = bBusy || bCanStart
   val bComputed = Wire(UInt(idW.W)) // B2's K entry of this cycle
-  // B2's sources of that entry (assigned in B), for bComputedIs
-  val b2Zero = Wire(Bool()); val b2Self = Wire(Bool()); val b2PxW = Wire(UInt(idW.W))
-  val kbHit = Wire(Bool()); val kbWritten = Wire(UInt(idW.W)); val kbWord = Wire(UInt(idW.W))
-  /** bComputed === w, compared at each of its sources (the block-RAM word first) */
-  def bComputedIs(w: UInt): Bool =
-    Mux(b2Zero, w === 0.U, Mux(b2Self, w === b2PxW, Mux(kbHit, w === kbWritten, w === kbWord)))
   val b1v = Wire(Bool()) // B1 holds a node of its row (B2 writes it next cycle)
   val b2v = RegInit(false.B) // B2 computes and writes K_k[b2x] now
   val b2x = Reg(UInt(idW.W)); val b2Slot = Reg(UInt(2.W))
@@ -447,8 +446,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val upVal = upWord(vW + idW - 1, idW).asSInt
   val upId = upWord(idW - 1, 0)
   // K_{k-1}[upId] is read now and used in AK (below)
-  val (kaHit, kaWritten, kaWord) = kTab.readParts(0, inA0.sl.sPrev, upId)
-  val kWordA = Mux(kaHit, kaWritten, kaWord)
+  val kWordA = kTab.read(0, inA0.sl.sPrev, upId)
   // the row's start bookkeeping (a cycle after T; A1 reads R_k's flags a cycle later)
   when(inA0v && inA0.rowStart) {
     val d = inA0.sl.d
@@ -480,10 +478,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val clsZero = RegNext(upId === 0.U)
   val clsFromB = RegNext(b1v && b3.cur === inA0.sl.sPrev && bx === upId, false.B)
   val cls = Mux(clsZero, 0.U, Mux(clsFromB, bComputed, kWordA))
-  /** cls === w, compared at each of cls's sources (the R and S reads' write forwarding) */
-  def clsIs(w: UInt): Bool = Mux(clsZero, w === 0.U, Mux(clsFromB, bComputedIs(w), Mux(kaHit, w === kaWritten, w === kaWord)))
-  val rWordA = rTab.read(0, inAK.sl.r, cls, clsIs)
-  val sPrevWord = sTab.read(0, inAK.sl.sPrev, cls, clsIs)
+  val rWordA = rTab.read(0, inAK.sl.r, cls)
+  val sPrevWord = sTab.read(0, inAK.sl.sPrev, cls)
   inA1v := inAKv
   inA1.sl := inAK.sl
   inA1.rowStart := inAK.rowStart; inA1.lastCol := inAK.lastCol; inA1.valid := inAK.valid; inA1.newRun := inAK.newRun
@@ -592,16 +588,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
   // B1 (node bx): P_k[bx] is here; K_k[P_k[bx]] is read. B2 (node b2x, a cycle later) computes and writes K_k[b2x];
   // P_k[x] < x, so the read sees B2's write of node x - 1 made in the same cycle.
-  val kbParts = kTab.readParts(1, bKslot, bPx)
-  kbHit := kbParts._1; kbWritten := kbParts._2; kbWord := kbParts._3
-  val kWordB = Mux(kbHit, kbWritten, kbWord)
+  val kWordB = kTab.read(1, bKslot, bPx)
   val b2Px = RegNext(bPx)
-  b2PxW := b2Px
   b1v := bActive && bx < bN
   b2v := b1v
   b2x := bx(idW - 1, 0); b2Slot := bKslot
   // x = 0 and P_k[x] = x decided in B1 (registers into B2's multiplexer)
-  b2Zero := RegNext(bx === 0.U); b2Self := RegNext(bPx === bx(idW - 1, 0))
+  val b2Zero = RegNext(bx === 0.U); val b2Self = RegNext(bPx === bx(idW - 1, 0))
   bComputed := Mux(b2Zero, 0.U, Mux(b2Self, b2Px, kWordB))
   when(b2v) { kTab.write(b2Slot, b2x, bComputed) }
   // bx + 1 >= bN (B1 holds its row's last node) without a compare after bN's multiplexer: a row's first node (bx = 0)
@@ -641,20 +634,20 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val cRbuf = c2.cur
   val cSbuf = c3.prev
   // C1
-  def c1ClassIs(w: UInt): Bool = Mux(c1Hit, w === c1Written, w === c1Read)
-  val rWordC = rTab.read(1, cRbuf, c1Class, c1ClassIs)
-  val sWordC = sTab.read(2, cSbuf, c1Class, c1ClassIs)
+  val rWordC = rTab.read(1, cRbuf, c1Class)
+  val sWordC = sTab.read(2, cSbuf, c1Class)
   val c2v = RegNext(c1v, false.B)
   c2Last := c1Last
   val c2x = RegNext(c1x)
   // the touched flag in two steps: the group flags now (from the class read), the group in C2
-  // (formed from both of the class's sources and selected after, so the block RAM's word meets the lookup first)
-  val c2OpenGroups = Reg(UInt(rvC.count.W))
-  c2OpenGroups := Mux(c1Hit, rvC.groups(cRbuf, c1Written), rvC.groups(cRbuf, c1Read))
+  // (formed from each of the class's sources and selected in C2, so the block RAM's word meets only the lookup)
+  val c2OpenGroupsRead = Reg(UInt(rvC.count.W)); c2OpenGroupsRead := rvC.groups(cRbuf, c1Read)
+  val c2OpenGroupsWritten = Reg(UInt(rvC.count.W)); c2OpenGroupsWritten := rvC.groups(cRbuf, c1Written)
+  val c2Hit = RegNext(c1Hit)
   val c2Class = RegNext(c1Class)
-  val c2Fin = RegNext(finAny(cSbuf) && c1ClassIs(finTop(cSbuf)))
+  val c2Fin = RegNext(finAny(cSbuf)) && c2Class === RegNext(finTop(cSbuf)) // compared in C2, after registers
   // C2
-  val c2Open = rvC.pick(c2OpenGroups, c2Class)
+  val c2Open = rvC.pick(Mux(c2Hit, c2OpenGroupsWritten, c2OpenGroupsRead), c2Class)
   val cEntry = Mux(c2Open, Cat(0.U(1.W), rWordC.pad(fW)), Cat(1.U(1.W), Mux(c2Fin, finSize(cSbuf), sWordC).pad(fW)))
   // C3 registers the entry (the multiplexer after the S and R block-RAM reads stays off the long nets); C4 is one
   // register per map, loaded only for its own slot (so synthesis keeps them apart and places each by its map), and
