@@ -65,8 +65,8 @@ import chisel3.util._
   * above is a transparent SyncReadMem; the others are read-first (`Mem` read into a register, so Yosys emulates no
   * transparency) and either never meet a write of their cycle (the delay line and F maps: D reads rows A has
   * finished, C writes maps no beat in the chain still needs) or forward it: K, R, S (one replica per reader; K: A0,
-  * B1, C0; R: AK, C1; S: AK, A1, C1) compare the write's slot and entry with the read's (a cycle later, between
-  * registers, when the word arrives), P (written a cycle after A
+  * B1, C0; R: AK, C1; S: AK, A1, C1) compare the write's slot and entry with the read's (R and S a cycle later,
+  * between registers, when the word arrives), P (written a cycle after A
   * asks, from registers) forwards that write and the one asked for this cycle (A's last pixels write while B starts
   * that row). A write in the cycle after the read is forwarded by the reader (A2: the previous pixel's first touch,
   * through its touched flag, which also stands in for that pixel's R write missing from A1's word). B, C and D read
@@ -186,7 +186,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     * read register) and the write of the read's own cycle is forwarded here, compared by slot and entry: a
     * transparent SyncReadMem would make Yosys compare the whole addresses, after the slot x W + x adders (and after
     * the write's decision, which multiplexed the write address), on the read address's path. */
-  class Table(name: String, slots: Int, width: Int, readers: Int) {
+  class Table(name: String, slots: Int, width: Int, readers: Int, lateCompare: Boolean) {
     private val depth = slots * W
     private val mems = Seq.tabulate(readers)(i => Mem(depth, UInt(width.W)).suggestName(s"${name}_$i"))
     // the address and data are don't-cares without a write, so they do not wait for the write's decision
@@ -201,28 +201,32 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
       val (hit, written, word) = readParts(reader, slot, x)
       Mux(hit, written, word)
     }
-    // the write a cycle later, for the forwarding compares
+    // the write a cycle later, for the late forwarding compares
     private val wenLate = RegNext(wen, false.B)
     private val wslotLate = RegNext(wslot)
     private val wxLate = RegNext(wx)
     /** The read as (the write of its cycle hit, that write's data, the word read): a reader that computes from the
       * word can compute from both and select after (the block RAM's output then meets no multiplexer first).
-      * The hit is compared a cycle after the read, in the cycle the word arrives, between registers (the write's
-      * address then, the read's address): both addresses may come from a block RAM or a decision, and the compare
-      * of a read address formed from a block-RAM word in the read's own cycle was the speckle stage's critical path. */
+      * The hit compares the write's slot and entry with the read's. With `lateCompare` (R and S, whose write address
+      * is A2's decision and whose read addresses follow a K lookup) it is compared a cycle after the read, between
+      * registers, when the word arrives: in the read's own cycle that compare came after both the decision and a
+      * block-RAM word, the stage's critical path. Without it (K, written from B2's registers) it is compared in the
+      * read's cycle and registered, so the hit is a flip-flop where the word is used. */
     def readParts(reader: Int, slot: UInt, x: UInt): (Bool, UInt, UInt) = {
       val word = Reg(UInt(width.W)); word := mems(reader).read(addr(slot, x))
       val written = Reg(UInt(width.W)); written := wdata
-      val hit = wenLate && wslotLate === RegNext(slot) && wxLate === RegNext(x)
+      val hit =
+        if (lateCompare) wenLate && wslotLate === RegNext(slot) && wxLate === RegNext(x)
+        else RegNext(wen && wslot === slot && wx === x, false.B)
       (hit, written, word)
     }
   }
   // K: flat classes, 3 rows (B never waits for C to finish reading K_{k-2}); written by B2, read by A0, B1, C0.
-  val kTab = new Table("kMem", 3, idW, 3)
+  val kTab = new Table("kMem", 3, idW, 3, lateCompare = false)
   // R: class -> row-k node, 2 rows; written by A2, read by AK and C1.
-  val rTab = new Table("rMem", 2, idW, 2)
+  val rTab = new Table("rMem", 2, idW, 2, lateCompare = true)
   // S: saturating sizes, 3 rows; written by A2, read by AK (S_{k-1}), A1 (S_k) and C1 (S_{k-1}).
-  val sTab = new Table("sMem", 3, sW, 3)
+  val sTab = new Table("sMem", 3, sW, 3, lateCompare = true)
   val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
   /** The same lookup in two steps, for a register between them (a W:1 multiplexer is too deep for one step):
     * `groups` picks the flag at the index's low `lo` bits in each group of 2^lo classes (at most 2^hiBits groups;
