@@ -84,7 +84,9 @@ object PostProcess {
         "last valid above (read-first Mem) / running fill (SyncReadMem) per column (block RAM)")) ++
       (if (p.filterAdaptiveMean) Seq(
         MemoryUse("PostMean", "windowH", 9, 16 + 4 + 14, "horizontal: 9 pixel registers (value, framing, width)"),
-        MemoryUse("PostMean", "rowsV", 9 * w, 16, "9 row slots (rows v-4..v+3 + 1); read-first Mem (block RAM)")) else Nil) ++
+        MemoryUse("PostMean", "rowsV", 9 * w, 16, "9 row slots (rows v-4..v+3 + 1); read-first Mem (block RAM)"),
+        MemoryUse("PostMean", "outQueues", 2 * PostMean.outEntries, 16 + 4 + 14,
+          "output queue of each pass (its pipeline never stalls; it enters a pixel with a credit)")) else Nil) ++
       (if (p.filterMedian) Seq(
         MemoryUse("PostMedian", "windowH", 9, 16 + 4 + 14, "horizontal: 9 pixel registers (value, framing, width)"),
         MemoryUse("PostMedian", "rowsV", 8 * w, 17, "8 row slots (rows v-3..v+3 + 1); read-first Mem (block RAM)")) else Nil)

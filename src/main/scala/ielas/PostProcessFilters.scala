@@ -456,23 +456,33 @@ class FilterTaps(p: ElasParams, bits: Int, above: Int, below: Int, vertical: Boo
 /** Post step 3: adaptive mean, one direction (docs/ALGORITHM.md post 3). Horizontal: taps p-4..p+3 of the row for
   * 4 <= p <= W-4, from a [[RowWindow]] over the stream; vertical: rows v-4..v+3 for 4 <= v <= H-4 (window rows
   * read from the ring at the same column).
-  * A stall pipeline of 9 register stages (all advance when the output register can load): taps; distances to the
-  * centre; weights; pair sums of the weighted taps; numerator and denominator; dividend and reciprocal; the product
-  * as 4 partial products, then 3 terms, then whole (each partial product fits one 18 x 18 multiplier).
-  * Buffers: horizontal 9 pixel registers; vertical 9 slots x maxWidth x 16 (block RAM).
+  * A pipeline of 9 register stages: taps; distances to the centre; weights; pair sums of the weighted taps;
+  * numerator and denominator; dividend and reciprocal; the product as 4 partial products, then 3 terms, then whole
+  * (each partial product fits one 18 x 18 multiplier). It never stalls: a pixel enters only with a credit for the
+  * output queue ([[PostMean.outEntries]] entries, room for every pixel entered and not yet taken), so the
+  * consumer's ready reaches the queue and the credit count, not the enable of every stage register (a stall
+  * pipeline made that ready a net of several hundred enables across the part: the whole top's critical path).
+  * Buffers: horizontal 9 pixel registers; vertical 9 slots x maxWidth x 16 (block RAM); the output queue.
   */
 class PostMean(p: ElasParams, vertical: Boolean) extends Module {
   val io = IO(new Bundle {
     val in = Flipped(Decoupled(new PostBeat(16)))
     val out = Decoupled(new PostBeat(16))
   })
-  val o = new PostFilters.OutReg(16, io.out)
   val t = new FilterTaps(p, 16, 4, 3, vertical, io.in)
-  val adv = o.canLoad
-  val go = t.ready && adv
+  private val entries = PostMean.outEntries
+  val outQueue = Module(new Queue(new PostBeat(16), entries))
+  io.out <> outQueue.io.deq
+  val owed = RegInit(0.U(log2Ceil(entries + 1).W)) // pixels entered and not yet taken from the queue
+  val creditOk = RegInit(true.B) // owed < entries
+  val takenLate = RegNext(outQueue.io.deq.fire, false.B) // a taken pixel's credit comes back a clock later
+  val go = t.ready && creditOk
   when(go) { t.take() }
-  private def st[T <: Data](x: T): T = RegEnable(x, adv)
-  private def stValid(x: Bool): Bool = RegEnable(x, false.B, adv)
+  val owedNext = owed + go.asUInt - takenLate.asUInt
+  owed := owedNext
+  creditOk := owedNext < entries.U
+  private def st[T <: Data](x: T): T = { val r = Reg(chiselTypeOf(x)); r := x; r }
+  private def stValid(x: Bool): Bool = RegNext(x, false.B)
   // 1: taps
   val v1 = stValid(go); val x1 = st(VecInit(t.taps.map(_.asSInt))); val r1 = st(t.inRange); val f1 = st(t.framing)
   // 2: distances to the centre
@@ -517,7 +527,18 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
   val prod = st(qL +& (qM << 17) +& (qH << 34))
   val mean = (prod >> 27)(15, 0)
   val value = Mux(r9 && c9 >= 0.S, mean.asSInt, c9)
-  when(adv && v9) { o.load(value, f9.sof, f9.eol, f9.eof, f9.lastRow, f9.cols) }
+  val outBeat = Reg(new PostBeat(16))
+  outBeat.data := value; outBeat.sof := f9.sof; outBeat.eol := f9.eol; outBeat.eof := f9.eof
+  outBeat.lastRow := f9.lastRow; outBeat.cols := f9.cols
+  outQueue.io.enq.valid := RegNext(v9, false.B)
+  outQueue.io.enq.bits := outBeat
+  assert(!outQueue.io.enq.valid || outQueue.io.enq.ready, "PostMean: output queue full (credits)")
+}
+
+object PostMean {
+  /** Output queue entries: at full rate a pixel is owed for 12 clocks (the 9 stages, the output register, the queue,
+    * the credit's register), and one more. Fewer would leave bubbles, never lose a pixel. */
+  val outEntries: Int = 13
 }
 
 /** Post step 4: 7-tap median, one direction (docs/ALGORITHM.md post 4), 4th smallest with invalid taps as -1.
