@@ -121,14 +121,20 @@ class SupportMatcher(p: ElasParams) extends Module {
   // `topSlotFree` is that compare a clock late. The walker only moves forward, so a late "free" stays true, except
   // after topRow.v moves or a frame starts: then it reads "not free" for a clock. (No bubble at a row's first pixel:
   // with candidateStep >= 2 the row after a top-row advance is never a top row.)
+  // The top tracker's row is counted down (`topRowsAhead` = topRow.v - r - capY, 0 when topRow.rowIs), so the next
+  // row's hit is a compare with 1, not the tracker's sum and compares after another sum.
   val topHitRow = RegInit(false.B)
   val topSlotFree = RegInit(false.B)
+  val topRowsAhead = RegInit(0.U(rowW.W))
+  val topInFrame = RegInit(false.B) // topRow.v + margin < height
+  val topRowNow = topRowsAhead === 0.U // topRow.rowIs
   val startFrame = io.in.valid && io.in.bits.sof && !capBusy && !walkBusy
   io.in.ready := Mux(capBusy, !topHitRow || topSlotFree, !io.in.bits.sof || !walkBusy)
   val capture = io.in.fire && capBusy
   val endOfLine = capX === width - 1.U
-  topSlotFree := walkV +& (slots * step).U > topRow.v && !startFrame && !(capture && endOfLine && topRow.rowIs)
-  assert(!capBusy || topHitRow === topRow.hit, "SupportMatcher: the registered top-row hit differs from topRow.hit")
+  topSlotFree := walkV +& (slots * step).U > topRow.v && !startFrame && !(capture && endOfLine && topRowNow)
+  assert(!capBusy || topHitRow === topRow.hit && topRowNow === topRow.rowIs,
+    "SupportMatcher: the registered top-row hit differs from topRow.hit")
 
   when(startFrame) {
     width := io.frameWidth
@@ -140,13 +146,19 @@ class SupportMatcher(p: ElasParams) extends Module {
     capY := 0.U
     Seq(topRow, centreRow, bottomRow).foreach(_.restart())
     topHitRow := (r == firstRow).B && (firstRow + margin).U < io.frameHeight // topRow.hit at capY = 0
+    topRowsAhead := (firstRow - r).U
+    topInFrame := (firstRow + margin).U < io.frameHeight
   }
   when(capture) {
     capX := Mux(endOfLine, 0.U, capX + 1.U)
     when(endOfLine) {
       capY := capY + 1.U
-      val topVNext = Mux(topRow.rowIs, topRow.v + step.U, topRow.v)
-      topHitRow := ((capY + 1.U).zext +& r.S) === topVNext.zext && topVNext +& margin.U < height
+      // the next row is the tracker's when it is one row ahead now (after an advance it is step >= 2 rows ahead)
+      topHitRow := topRowsAhead === 1.U && topInFrame
+      when(topRowNow) {
+        topRowsAhead := (step - 1).U
+        topInFrame := topRow.v +& (step + margin).U < height
+      }.otherwise { topRowsAhead := topRowsAhead - 1.U }
       when(capY === height - 1.U) { capBusy := false.B }
       Seq(topRow, centreRow, bottomRow).foreach(t => when(t.rowIs) { t.advance() })
     }
