@@ -30,10 +30,12 @@ import chisel3.util._
   * Marking: a read-modify-write pipeline (register, read, OR + write) taking one node per clock; the write of the
   * previous cycle is forwarded. Emission: per column, the three rows' words are read one after another through the
   * same read port (marks have priority) and ORed (vertical dilation); a cell ORs three such columns (horizontal)
-  * and a priority encoder takes `lanes` lowest set bits per cycle (lowest bit = m & -m, an adder carry chain and an
-  * OR-tree encoder). A cell takes max(ceil(storedDisparities / lanes) + 1, 4) + 1 cycles without read-port
-  * contention (the + 1: a cell's end is decided on the registered mask, which keeps the encoder and the 256-bit
-  * zero test in separate cycles; [[GridVector.cellCycles]]; 22 at storedDisparities 20 with 1 lane), far below the gridSize^2 pixel clocks of
+  * and a priority encoder takes `lanes` lowest set bits per cycle (lowest bit = m & -m in two levels of 16-bit
+  * groups; the bit's index is encoded and stored a clock later). A cell takes
+  * max(ceil(storedDisparities / lanes) + 1, 4) + 1 cycles without read-port contention (the + 1: a cell's end is
+  * decided on the registered mask, which keeps the encoder and the 256-bit zero test in separate cycles and gives
+  * the last taken index its clock to be stored; [[GridVector.cellCycles]]; 22 at storedDisparities 20 with 1 lane),
+  * far below the gridSize^2 pixel clocks of
   * one cell at 1 pixel per clock (400 at gridSize 20). Exception: at gridSize 2 a cell has only 4 pixel clocks and
   * the stage back-pressures (about 1.3x the pixel time); gridSize >= 3 keeps up.
   */
@@ -276,21 +278,54 @@ class GridVector(p: ElasParams) extends Module {
     state := sExtract
   }
 
-  /** Takes up to `lanes` lowest set bits of `mask` into res(cnt..). */
-  def extract(mask: UInt, cnt: UInt, res: Vec[SInt]): Unit = {
+  // The lowest set bit of a word of dispMax + 1 marks, in two levels so no carry chain runs the whole word: the
+  // lowest non-zero group of 16 bits (a 16-bit carry over the groups' OR) and each group's lowest bit (16-bit carries
+  // side by side). The taken bit's index is encoded a clock later from the two one-hot words; the cell's end is
+  // decided on the registered mask a clock after the last take anyway, so the result is complete in time.
+  private val groupW = GridVector.groupWidth
+  private val groups = (nd + groupW - 1) / groupW
+  class Taken extends Bundle {
+    val valid = Bool()
+    val slot = UInt(cntW.W) //   result slot
+    val group = UInt(groups.W) // one-hot: the group of the taken bit
+    val bit = UInt(groupW.W) //   one-hot: the taken bit within its group
+  }
+  val takenL = RegInit(VecInit(Seq.fill(lanes)(0.U.asTypeOf(new Taken))))
+  val takenR = RegInit(VecInit(Seq.fill(lanes)(0.U.asTypeOf(new Taken))))
+
+  private def lowest(x: UInt): UInt = x & (~x + 1.U)
+
+  /** Takes up to `lanes` lowest set bits of `mask` into taken (written to res(cnt..) next cycle). */
+  def extract(mask: UInt, cnt: UInt, taken: Vec[Taken]): Unit = {
     var m = mask
     var c = cnt
-    for (_ <- 0 until lanes) {
-      val low = m & (~m + 1.U) // the lowest set bit
-      val take = m.orR && c < sd.U
-      val value = OHToUInt(low).pad(p.dispBits).zext
-      for (k <- 0 until sd) when(take && c === k.U) { res(k) := value }
+    for (l <- 0 until lanes) {
+      val words = (0 until groups).map(g => m(math.min(nd, (g + 1) * groupW) - 1, g * groupW).pad(groupW))
+      val nonZero = VecInit(words.map(_.orR)).asUInt
+      val group = lowest(nonZero)
+      val bits = words.map(lowest)
+      val low = Cat((0 until groups).reverse.map(g => Mux(group(g), bits(g), 0.U(groupW.W))))(nd - 1, 0)
+      val take = nonZero.orR && c < sd.U
+      taken(l).valid := take
+      taken(l).slot := c
+      taken(l).group := group
+      taken(l).bit := Mux1H(group, bits)
       m = Mux(take, m & ~low, m)
       c = Mux(take, c + 1.U, c)
     }
     mask := m
     cnt := c
   }
+
+  /** Writes the values taken a clock ago into their result slots. */
+  def store(taken: Vec[Taken], res: Vec[SInt]): Unit = for (t <- taken) {
+    val value = (if (groups == 1) OHToUInt(t.bit) else Cat(OHToUInt(t.group), OHToUInt(t.bit))).pad(p.dispBits).zext
+    for (k <- 0 until sd) when(t.valid && t.slot === k.U) { res(k) := value }
+  }
+  takenL.foreach(_.valid := false.B)
+  takenR.foreach(_.valid := false.B)
+  store(takenL, resL)
+  store(takenR, resR)
 
   val rowReady = markedAll || markedRow >= emitRow +& 2.U
 
@@ -313,7 +348,7 @@ class GridVector(p: ElasParams) extends Module {
       // done is decided on the registers (one cycle after the last take), not on the extraction's result
       def done(mask: UInt, cnt: UInt): Bool = mask === 0.U || cnt === sd.U
       when(done(maskL, cntL) && done(maskR, cntR)) { state := sEmit }
-        .otherwise { extract(maskL, cntL, resL); extract(maskR, cntR, resR) }
+        .otherwise { extract(maskL, cntL, takenL); extract(maskR, cntR, takenR) }
     }
     is(sEmit) {
       when(output.free && fDone) {
@@ -352,6 +387,9 @@ class GridVector(p: ElasParams) extends Module {
 object GridVector {
   /** Grid-row slots per view: rows gy - 1 .. gy + 1 being emitted plus row gy + 2 being marked. */
   val slots: Int = 4
+
+  /** Mark bits per group of the two-level lowest-bit search (a power of two: the index is group and offset). */
+  val groupWidth: Int = 16
 
   /** Disparities the priority encoder takes per cycle: the fewest that keep a cell within gridSize^2 / 2 cycles;
     * where nothing does (gridSize 2 or 3), the fewest that hide the extraction behind the 4-cycle column fetch.

@@ -12,8 +12,9 @@ import chisel3.util._
   * Latency in rows (steady state): (L + 2) + 1 + G + 3 = (L - 1) + G + 3 of the algorithm's look-ahead plus 4:
   * speckle's forward maps lag one row and its flattening one more (+ 3 over L - 1), and the row gap step needs its
   * row complete (+ 1); the first mean / median pass starts 4 columns behind its input.
-  * The steps' register stages add clock cycles, not rows (mean 9, median 2, row gaps 2, column gaps 3; the ring
-  * steps read a row being written 2 columns behind it). See [[PostProcess.latencyRows]].
+  * The steps' register stages add clock cycles, not rows (mean 9, median 2, row gaps 2 plus the register slice in
+  * front of them 1, column gaps 3; the ring steps read a row being written 2 columns behind it).
+  * See [[PostProcess.latencyRows]].
   */
 class PostProcess(p: ElasParams) extends Module {
   private val vW = p.signedDispBits
@@ -28,15 +29,19 @@ class PostProcess(p: ElasParams) extends Module {
   speckle.io.frameWidth := io.frameWidth
   speckle.io.frameHeight := io.frameHeight
 
+  // a register slice between the two: the speckle output queue's LUT-RAM read and the row step's input compares
+  // would otherwise share one clock (the whole top's worst path on the ECP5)
   val rows = Module(new PostRowGaps(p))
-  rows.io.in.valid := speckle.io.out.valid
-  speckle.io.out.ready := rows.io.in.ready
-  rows.io.in.bits.data := speckle.io.out.bits.data
-  rows.io.in.bits.sof := speckle.io.out.bits.sof
-  rows.io.in.bits.eol := speckle.io.out.bits.eol
-  rows.io.in.bits.eof := speckle.io.out.bits.eof
-  rows.io.in.bits.lastRow := speckle.io.outLastRow
-  rows.io.in.bits.cols := speckle.io.outWidth
+  val speckleOut = Wire(Decoupled(chiselTypeOf(rows.io.in.bits)))
+  speckleOut.valid := speckle.io.out.valid
+  speckle.io.out.ready := speckleOut.ready
+  speckleOut.bits.data := speckle.io.out.bits.data
+  speckleOut.bits.sof := speckle.io.out.bits.sof
+  speckleOut.bits.eol := speckle.io.out.bits.eol
+  speckleOut.bits.eof := speckle.io.out.bits.eof
+  speckleOut.bits.lastRow := speckle.io.outLastRow
+  speckleOut.bits.cols := speckle.io.outWidth
+  rows.io.in <> RegisterSlice(speckleOut)
 
   val cols = Module(new PostColumnGaps(p))
   cols.io.in <> rows.io.out

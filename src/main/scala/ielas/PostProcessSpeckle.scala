@@ -756,10 +756,21 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   cool := coolNext
   dReady := Mux(issue && dRowEnd, dReadyNextRow && !dVirt,
     dAN >= 1.S && Mux(dVirt, true.B, dCN > dLen.zext) && coolNext === 0.U)
-  // read one cycle ahead, at the row and column D holds next cycle: both candidates come from registers and the
-  // issue decision only picks one (it stays off the slot x W + column adder)
-  val dAddrNow = addr(dD.cur, dCol)
-  val dAddrOn = Mux(dRowEnd, addr(dD.succ, 0.U), dAddrNow + 1.U)
+  // read one cycle ahead, at the row and column D holds next cycle. The three candidate addresses are registers
+  // kept with D's position (slot x W + column needs a constant multiply and adds, and the delay line spans dozens
+  // of block RAMs at full width): the issue decision picks one in a single LUT level before the RAMs' address pins.
+  private val delayAddrW = log2Ceil(ND * W)
+  private def rowBase(slot: Int): UInt = (slot * W).U(delayAddrW.W) // addr(slot, 0)
+  val dAddrNow = RegInit(0.U(delayAddrW.W)) // addr(dD.cur, dCol)
+  val dAddrP1 = RegInit(1.U(delayAddrW.W)) //  dAddrNow + 1
+  val dSuccBase = RegInit(rowBase(1 % ND)) //  addr(dD.succ, 0)
+  when(issue) {
+    dAddrNow := Mux(dRowEnd, dSuccBase, dAddrP1)
+    dAddrP1 := Mux(dRowEnd, dSuccBase, dAddrP1) + 1.U
+  }
+  when(dD.incW) { dSuccBase := VecInit((0 until ND).map(i => rowBase((i + 1) % ND)))(dD.succ) }
+  assert(dAddrNow === addr(dD.cur, dCol) && dSuccBase === addr(dD.succ, 0.U), "speckle: D's read address registers")
+  val dAddrOn = Mux(dRowEnd, dSuccBase, dAddrP1)
   val word = RegNext(delay.read(Mux(issue, dAddrOn, dAddrNow)))
   val s0 = Wire(new Beat)
   s0.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
