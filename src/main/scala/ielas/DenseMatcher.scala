@@ -682,21 +682,19 @@ class DenseMatcher(p: ElasParams) extends Module {
   class StageA3 extends Bundle {
     val px = new Pixel
     val leftOwner = UInt((cellW + 1).W)
-    val base2 = UInt((cellW + 1).W)
     val covered = Bool()
-    val top = UInt((log2Ceil(coverBlocks) + 3).W) // the highest covering triangle's window index j * 2 + t
+    val coveredOwner = UInt((cellW + 1).W) // base2 + j * 2 + t of the highest covering triangle in the window
   }
   val (a3Flow, a3) = upStage(new StageA3, a2Flow) { r =>
     r.px := a2.px
     r.leftOwner := a2.leftOwner
-    r.base2 := a2.base2
     val (any, top) = highest(a2.blockAny.zip(a2.blockTop))
     r.covered := any
-    r.top := top
+    r.coveredOwner := (a2.base2 + top)(cellW, 0) // added here: the owner feeds the plane banks' read address next
   }
   // Right view: the highest-indexed covering triangle in the window, else the owner of the last covered pixel.
   val carry = Reg(UInt((cellW + 1).W))
-  val rightOwner = Mux(a3.covered, (a3.base2 + a3.top)(cellW, 0), Mux(a3.px.first, a3.px.fallback, carry))
+  val rightOwner = Mux(a3.covered, a3.coveredOwner, Mux(a3.px.first, a3.px.fallback, carry))
   when(a3Flow.moves) { carry := rightOwner }
 
   class StageB extends Bundle {

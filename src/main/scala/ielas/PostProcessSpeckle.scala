@@ -66,7 +66,8 @@ import chisel3.util._
   * transparency) and either never meet a write of their cycle (the delay line and F maps: D reads rows A has
   * finished, C writes maps no beat in the chain still needs) or forward it: K, R, S (one replica per reader; K: A0,
   * B1, C0; R: AK, C1; S: AK, A1, C1) compare the write's slot and entry with the read's (R and S a cycle later,
-  * between registers, when the word arrives), P (written a cycle after A
+  * between registers, when the word arrives; C0's K replica is read a clock earlier still and its word registered
+  * once more, with a second compare for the write of the following cycle), P (written a cycle after A
   * asks, from registers) forwards that write and the one asked for this cycle (A's last pixels write while B starts
   * that row). A write in the cycle after the read is forwarded by the reader (A2: the previous pixel's first touch,
   * through its touched flag, which also stands in for that pixel's R write missing from A1's word). B, C and D read
@@ -219,6 +220,21 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
         if (lateCompare) wenLate && wslotLate === RegNext(slot) && wxLate === RegNext(x)
         else RegNext(wen && wslot === slot && wx === x, false.B)
       (hit, written, word)
+    }
+    /** The same as [[readParts]] a clock later, for a reader that knows its next entry: the read is issued at
+      * (slot, x), the entry it will hold next cycle, and its word is registered once more in the fabric, so the word
+      * leaves a flip-flop where it is used. The write of the issue cycle is compared with (slot, x), the write of the
+      * next with (nowSlot, nowX), the entry then held; `nowZero` (entry 0, whose word is 0 and needs no read) counts
+      * as a write of 0. */
+    def readEarly(reader: Int, slot: UInt, x: UInt, nowSlot: UInt, nowX: UInt, nowZero: Bool): (Bool, UInt, UInt) = {
+      val word = Reg(UInt(width.W)); word := mems(reader).read(addr(slot, x))
+      val wordLate = Reg(UInt(width.W)); wordLate := word
+      val hitEarly = RegNext(wen && wslot === slot && wx === x, false.B)
+      val writtenEarly = Reg(UInt(width.W)); writtenEarly := wdata
+      val hitNow = wen && wslot === nowSlot && wx === nowX
+      val hit = RegNext(nowZero || hitEarly || hitNow, false.B)
+      val written = Reg(UInt(width.W)); written := Mux(nowZero, 0.U, Mux(hitNow, wdata, writtenEarly))
+      (hit, written, wordLate)
     }
   }
   // K: flat classes, 3 rows (B never waits for C to finish reading K_{k-2}); written by B2, read by A0, B1, C0.
@@ -613,7 +629,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
 
   // ===== C: forward map F_k for the nodes of row k - 1, in three steps =====
-  // C0 reads the class of node x (K_{k-1}), C1 reads its entry (R_k, S_{k-1}, the touched flag), C2 forms F_k[x], C3 and C4 carry it to its map.
+  // C0 holds node x (its class K_{k-1}[x] read a clock earlier), C1 reads its entry (R_k, S_{k-1}, the touched flag),
+  // C2 forms F_k[x], C3 and C4 carry it to its map.
   // C may start while row k's last pixel is in A2 (C1 reads R_k a cycle later) and once B1 has finished row k - 1
   // (C0's read then sees B2's last K write). The row ends (cNext, C's slots) when C2 forms the last entry; C0 starts
   // the next row a clock later, so C's slots stay fixed while a row is in its steps.
@@ -630,10 +647,15 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   c1v := cActive && cxEff < cPrevN
   c1Last := cActive && cxEff + 1.U >= cPrevN
   c1x := cxEff(idW - 1, 0)
-  val (c1Hit, c1Written, c1Read) = kTab.readParts(2, c3.prev, cxEff(idW - 1, 0))
+  // K_{k-1}[x] is read a clock before C0 holds node x (at cxEff + 1, the node C0 holds next if the row goes on; a row
+  // starts at node 0, whose class is 0), so the word reaches R's and S's read addresses from a flip-flop.
+  val cxP1 = Reg(UInt((idW + 1).W)) // cx + 1
+  val (c1Hit, c1Written, c1Read) =
+    kTab.readEarly(2, c3.prev, Mux(cBusy, cxP1, 1.U)(idW - 1, 0), c3.prev, cxEff(idW - 1, 0), !cBusy)
   val c1Class = Mux(c1Hit, c1Written, c1Read)
   when(cActive) {
-    when(cxEff + 1.U >= cPrevN) { cBusy := false.B }.otherwise { cBusy := true.B; cx := cxEff + 1.U }
+    when(cxEff + 1.U >= cPrevN) { cBusy := false.B }
+      .otherwise { cBusy := true.B; cx := cxEff + 1.U; cxP1 := cxEff + 2.U }
   }
   val cRbuf = c2.cur
   val cSbuf = c3.prev
