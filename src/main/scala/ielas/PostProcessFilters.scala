@@ -470,17 +470,11 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
     val out = Decoupled(new PostBeat(16))
   })
   val t = new FilterTaps(p, 16, 4, 3, vertical, io.in)
-  private val entries = PostMean.outEntries
-  val outQueue = Module(new Queue(new PostBeat(16), entries))
-  io.out <> outQueue.io.deq
-  val owed = RegInit(0.U(log2Ceil(entries + 1).W)) // pixels entered and not yet taken from the queue
-  val creditOk = RegInit(true.B) // owed < entries
-  val takenLate = RegNext(outQueue.io.deq.fire, false.B) // a taken pixel's credit comes back a clock later
-  val go = t.ready && creditOk
+  val out = new CreditQueue(new PostBeat(16), PostMean.outEntries, "PostMean")
+  io.out <> out.deq
+  val go = t.ready && out.creditOk
   when(go) { t.take() }
-  val owedNext = owed + go.asUInt - takenLate.asUInt
-  owed := owedNext
-  creditOk := owedNext < entries.U
+  out.spend(go)
   private def st[T <: Data](x: T): T = { val r = Reg(chiselTypeOf(x)); r := x; r }
   private def stValid(x: Bool): Bool = RegNext(x, false.B)
   // 1: taps
@@ -530,9 +524,7 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
   val outBeat = Reg(new PostBeat(16))
   outBeat.data := value; outBeat.sof := f9.sof; outBeat.eol := f9.eol; outBeat.eof := f9.eof
   outBeat.lastRow := f9.lastRow; outBeat.cols := f9.cols
-  outQueue.io.enq.valid := RegNext(v9, false.B)
-  outQueue.io.enq.bits := outBeat
-  assert(!outQueue.io.enq.valid || outQueue.io.enq.ready, "PostMean: output queue full (credits)")
+  out.enq(RegNext(v9, false.B), outBeat)
 }
 
 object PostMean {

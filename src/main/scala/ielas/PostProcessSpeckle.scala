@@ -727,17 +727,14 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   private val outEntries = PostProcessSpeckle.outEntries(p)
   val outReg = RegInit(0.U.asTypeOf(Valid(new OutBeat)))
   outReg.valid := false.B
-  val outQueue = Module(new Queue(new OutBeat, outEntries))
-  outQueue.io.enq.valid := outReg.valid
-  outQueue.io.enq.bits := outReg.bits
-  assert(!outReg.valid || outQueue.io.enq.ready, "speckle: output queue full (credits)")
-  val owed = RegInit(0.U(log2Ceil(outEntries + 1).W)) // beats issued (not virtual) and not yet taken
-  val creditOk = RegInit(true.B) // owed < outEntries
-  io.out.valid := outQueue.io.deq.valid
-  io.out.bits := outQueue.io.deq.bits.pixel
-  io.outLastRow := outQueue.io.deq.bits.lastRow
-  io.outWidth := outQueue.io.deq.bits.cols
-  outQueue.io.deq.ready := io.out.ready
+  val out = new CreditQueue(new OutBeat, outEntries, "speckle")
+  out.enq(outReg.valid, outReg.bits)
+  val creditOk = out.creditOk
+  io.out.valid := out.deq.valid
+  io.out.bits := out.deq.bits.pixel
+  io.outLastRow := out.deq.bits.lastRow
+  io.outWidth := out.deq.bits.cols
+  out.deq.ready := io.out.ready
 
   val dNext = RegInit(0.U(seqW.W)) // row being issued
   val dCol = RegInit(0.U(p.colBits.W))
@@ -762,11 +759,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     (metaVirtual(dD.succ) || dCNm1 > metaLen(dD.succ).zext), false.B)
   val dReady = RegInit(false.B)
   val issue = dReady && creditOk
-  // a taken beat returns its credit a clock later (registered: the queue's pointer compare stays off the count)
-  val takenLate = RegNext(outQueue.io.deq.fire, false.B)
-  val owedNext = owed + (issue && !dVirt).asUInt - takenLate.asUInt
-  owed := owedNext
-  creditOk := owedNext < outEntries.U
+  out.spend(issue && !dVirt) // a virtual row's beat never reaches the queue
   // Two beats meet in a ring register only if they are 3d clocks apart and d rows apart, d even, with the d - 1
   // rows between them in the 3d - 1 beats between: only d = 2 across a virtual row (one beat; real rows are at least
   // 32). C's map slots already keep a frame's first row from issuing while the row before the virtual row is in the

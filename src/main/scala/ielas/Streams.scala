@@ -90,6 +90,31 @@ class OutputRegister[T <: Data](out: DecoupledIO[T]) {
   out.bits := bits
 }
 
+/** The output queue of a pipeline that never stalls. A beat enters the pipeline only with a credit (`creditOk`, one
+  * per queue entry), and a credit comes back a clock after its beat leaves the queue (registered: the queue's
+  * pointer compare stays off the count). The consumer's ready then reaches the queue and the count only, not the
+  * enable of every pipeline register. `entries` must cover the beats in flight at full rate; fewer leave bubbles
+  * and never lose a beat (the enqueue asserts room). Verilog names: outQueue, owed, creditOk, takenLate.
+  */
+class CreditQueue[T <: Data](gen: T, entries: Int, owner: String) {
+  val queue: Queue[T] = Module(new Queue(gen, entries)).suggestName("outQueue")
+  val creditOk: Bool = RegInit(true.B).suggestName("creditOk") // owed < entries
+  private val owed = RegInit(0.U(log2Ceil(entries + 1).W)).suggestName("owed") // entered and not yet taken
+  private val takenLate = RegNext(queue.io.deq.fire, false.B).suggestName("takenLate")
+  val deq: DecoupledIO[T] = queue.io.deq
+  /** Call once per cycle: `entered` = a beat took a credit this cycle (it reaches [[enq]] through the pipeline). */
+  def spend(entered: Bool): Unit = {
+    val owedNext = owed + entered.asUInt - takenLate.asUInt
+    owed := owedNext
+    creditOk := owedNext < entries.U
+  }
+  def enq(valid: Bool, bits: T): Unit = {
+    queue.io.enq.valid := valid
+    queue.io.enq.bits := bits
+    assert(!valid || queue.io.enq.ready, s"$owner: output queue full (credits)")
+  }
+}
+
 /** A stream boundary with registered outputs and a registered ready: `out.valid`, `out.bits` and `in.ready` are
   * flip-flops, so neither a consumer's ready logic nor a producer's valid logic reaches through it (the top puts one
   * between stages, so a register-to-register path stays inside one stage). One beat per clock, one clock of latency;
