@@ -476,7 +476,17 @@ class SupportMatcher(p: ElasParams) extends Module {
   val pendTexL = Reg(Bool())
   val pendTexR = Reg(Bool())
   val pendRangeOk = Reg(Bool()) // the right sweep's range reaches supportMinRange
-  val pendOk = Reg(Bool())
+  val pendOk = Reg(Bool()) // every test but the right result's ratio (its products are registered first)
+  // The ratio test e1 * 100 < e2 * threshold% as products registered before the compare (each product is a
+  // multiplier block on the ECP5; product and compare in one clock were the whole top's worst path). The left
+  // result's products follow pendLeft every clock: it is loaded at the last right block's issue, at least a clock
+  // before that block's result ends the sweep (rightDone), so they are current when the decision is made.
+  private val ratioW = costBits + log2Ceil(math.max(100, p.supportThresholdPercent) + 1)
+  val pendLeftRatio = Reg(Vec(2, UInt(ratioW.W)))
+  val pendRightRatio = Reg(Vec(2, UInt(ratioW.W)))
+  def ratioTerms(b: Best): Vec[UInt] = VecInit(Seq(b.e1 * 100.U, b.e2 * p.supportThresholdPercent.U).map(_.pad(ratioW)))
+  def ratioOk(terms: Vec[UInt]): Bool = terms(0) < terms(1)
+  pendLeftRatio := ratioTerms(pendLeft)
 
   // ---- output register ----
   val output = new OutputRegister(io.out)
@@ -515,7 +525,6 @@ class SupportMatcher(p: ElasParams) extends Module {
     state := sSweep
   }
   val none = (-1).S(p.signedDispBits.W)
-  def ratioOk(b: Best): Bool = (b.e1 * 100.U) < (b.e2 * p.supportThresholdPercent.U)
 
   // The oldest left node's right sweep setup (reference u' = u - d1), registered: its reference read issues from
   // registers, one cycle after the left result is in.
@@ -616,12 +625,14 @@ class SupportMatcher(p: ElasParams) extends Module {
   when(rightDone) { pendRight := merged; pendStage := 1.U }
   when(pendStage === 1.U) {
     val diff = Mux(pendLeft.d1 > pendRight.d1, pendLeft.d1 - pendRight.d1, pendRight.d1 - pendLeft.d1)
-    pendOk := pendTexL && ratioOk(pendLeft) && pendRangeOk && pendTexR && ratioOk(pendRight) &&
-      diff <= p.lrThreshold.U
+    assert(pendLeftRatio === ratioTerms(pendLeft), "support: the left ratio's products lag pendLeft")
+    pendOk := pendTexL && ratioOk(pendLeftRatio) && pendRangeOk && pendTexR && diff <= p.lrThreshold.U
+    pendRightRatio := ratioTerms(pendRight)
     pendStage := 2.U
   }
   when(pendStage === 2.U && output.free) {
-    output(Mux(pendOk, pendLeft.d1(p.dispBits - 1, 0).zext, none), pendFlags(0), pendFlags(1), pendFlags(2))
+    val ok = pendOk && ratioOk(pendRightRatio)
+    output(Mux(ok, pendLeft.d1(p.dispBits - 1, 0).zext, none), pendFlags(0), pendFlags(1), pendFlags(2))
     pendBusy := false.B
     pendStage := 0.U
   }
