@@ -60,14 +60,15 @@ abstract class LatticeFill(p: ElasParams) extends Module {
   def nextSlot(s: UInt): UInt = Mux(s === (slots - 1).U, 0.U, s + 1.U)
   /** Writes `data` at `addr` one cycle later, from registers: no logic runs into a memory's write port (LUT-RAM
     * writes are synchronous anyway, and the synthesis depth proxy would follow false paths through it). Safe here:
-    * a row is read at least one cycle after its last write (row wait, then read), and a node's entry of the row
-    * above is rewritten only after it was read.
+    * a row's list is read no earlier than the cycle its last write lands (the walk forwards that write), and a node's
+    * entry of the row above is rewritten only after it was read. Returns the write's registers (enable, address, data).
     */
-  def lateWrite[T <: Data](mem: SyncReadMem[T], en: Bool, addr: UInt, data: T): Unit = {
+  def lateWrite[T <: Data](mem: SyncReadMem[T], en: Bool, addr: UInt, data: T): (Bool, UInt, T) = {
     val e = RegNext(en, false.B)
     val a = RegEnable(addr, en)
     val d = RegEnable(data, en)
     when(e) { mem.write(a, d) }
+    (e, a, d)
   }
 
   // ---- input side: each row's supports into its slot's list ----
@@ -104,7 +105,8 @@ abstract class LatticeFill(p: ElasParams) extends Module {
   /** A column index as a row-memory address (the index is < colsMax whenever the read matters). */
   def col(x: UInt): UInt = x(log2Ceil(colsMax) - 1, 0)
   val list = SyncReadMem(slots * colsMax, UInt((idxW + dBits).W))
-  lateWrite(list, write && isSupport, listAddr(writeSlot, writeCnt), Cat(writeCol, io.in.bits.data.asUInt(dBits - 1, 0)))
+  val (listWen, listWaddr, listWdata) =
+    lateWrite(list, write && isSupport, listAddr(writeSlot, writeCnt), Cat(writeCol, io.in.bits.data.asUInt(dBits - 1, 0)))
 
   when(start) {
     inBusy := true.B; procBusy := true.B; frameDone := false.B
@@ -134,6 +136,7 @@ abstract class LatticeFill(p: ElasParams) extends Module {
   val state = RegInit(sIdle)
   val procSlot = RegInit(0.U(slotBits.W)) // slot of row procJ
   val listPtr = Reg(UInt(listW.W)) //        list address of entry k of the row's source slot (r7 row 0: row 1 or 2)
+  val listPtrNext = WireDefault(listPtr); listPtr := listPtrNext
   val n = Reg(UInt(idxW.W)) //               supports in the source row
   val i = Reg(UInt(idxW.W))
   val k = Reg(UInt(idxW.W)) //               next list entry: the first support at or right of i
@@ -149,7 +152,15 @@ abstract class LatticeFill(p: ElasParams) extends Module {
   val vRaw = Reg(UInt(coordW.W)) // procJ * step
 
   val kIn = k < n
-  val entry = list.read(listPtr) // past the last entry (k = n) it reads a value that is not used
+  // The list is read at the entry listPtr takes next, so its word arrives in sRead and is registered there: sNode's
+  // decision (and the enables of the registers it loads) starts at flip-flops, not at a block-RAM output. A row's
+  // first entry is read in the cycle its row becomes ready, when the row's last support may still be landing
+  // (lateWrite): that write is forwarded.
+  val listWord = list.read(listPtrNext)
+  val listHit = RegNext(listWen && listWaddr === listPtrNext, false.B)
+  val listWritten = RegNext(listWdata)
+  val entry = Reg(UInt((idxW + dBits).W)) // past the last entry (k = n) it holds a value that is not used
+  when(state === sRead) { entry := Mux(listHit, listWritten, listWord) }
   val bIdx = entry(idxW + dBits - 1, dBits)
   val bVal = entry(dBits - 1, 0)
   val bHere = kIn && bIdx === i
@@ -180,7 +191,7 @@ abstract class LatticeFill(p: ElasParams) extends Module {
     is(sRowWait) {
       when(rowReady) {
         i := 0.U; k := 0.U; aValid := false.B; uRaw := 0.U
-        listPtr := slotBase(procSlot)
+        listPtrNext := slotBase(procSlot)
         n := c(procSlot)
         useList := c(procSlot) =/= 0.U
         useAbove := procJ =/= 0.U
@@ -188,7 +199,7 @@ abstract class LatticeFill(p: ElasParams) extends Module {
         state := sRead
       }
     }
-    is(sRead) { state := sNode } // list entry k and column i are read this cycle
+    is(sRead) { state := sNode } // list entry k arrives (registered), column i is read this cycle
   }
   when(doEmit) { // in sEmit
     output.valid := true.B
@@ -196,7 +207,7 @@ abstract class LatticeFill(p: ElasParams) extends Module {
     output.bits.sof := i === 0.U && procJ === 0.U
     output.bits.eol := eol
     output.bits.eof := eof
-    when(here) { aValid := true.B; aIdx := i; aVal := hereVal; k := k + 1.U; listPtr := listPtr + 1.U }
+    when(here) { aValid := true.B; aIdx := i; aVal := hereVal; k := k + 1.U; listPtrNext := listPtr + 1.U }
     i := i + 1.U
     uRaw := uRaw + step.U
     state := sRead
@@ -322,7 +333,7 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
   when(state === sRowWait && rowReady && procJ === 0.U && counts(0) === 0.U) {
     val one = rowsIn > 1.U && counts(1) =/= 0.U
     val two = rowsIn > 2.U && counts(2) =/= 0.U
-    listPtr := Mux(one, colsMax.U, (2 * colsMax).U)
+    listPtrNext := Mux(one, colsMax.U, (2 * colsMax).U)
     n := Mux(one, counts(1), counts(2))
     useList := one || two
     zeros := !one && !two
