@@ -63,7 +63,7 @@ abstract class LatticeFill(p: ElasParams) extends Module {
     * a row's list is read no earlier than the cycle its last write lands (the walk forwards that write), and a node's
     * entry of the row above is rewritten only after it was read. Returns the write's registers (enable, address, data).
     */
-  def lateWrite[T <: Data](mem: SyncReadMem[T], en: Bool, addr: UInt, data: T): (Bool, UInt, T) = {
+  def lateWrite[T <: Data](mem: MemBase[T], en: Bool, addr: UInt, data: T): (Bool, UInt, T) = {
     val e = RegNext(en, false.B)
     val a = RegEnable(addr, en)
     val d = RegEnable(data, en)
@@ -104,7 +104,9 @@ abstract class LatticeFill(p: ElasParams) extends Module {
   def listAddr(s: UInt, k: UInt): UInt = (slotBase(s) +& k)(listW - 1, 0)
   /** A column index as a row-memory address (the index is < colsMax whenever the read matters). */
   def col(x: UInt): UInt = x(log2Ceil(colsMax) - 1, 0)
-  val list = SyncReadMem(slots * colsMax, UInt((idxW + dBits).W))
+  // read-first (a `Mem` read into a register): the one write a read can meet is forwarded below, so Yosys needs no
+  // transparency logic of its own
+  val list = Mem(slots * colsMax, UInt((idxW + dBits).W))
   val (listWen, listWaddr, listWdata) =
     lateWrite(list, write && isSupport, listAddr(writeSlot, writeCnt), Cat(writeCol, io.in.bits.data.asUInt(dBits - 1, 0)))
 
@@ -156,7 +158,7 @@ abstract class LatticeFill(p: ElasParams) extends Module {
   // decision (and the enables of the registers it loads) starts at flip-flops, not at a block-RAM output. A row's
   // first entry is read in the cycle its row becomes ready, when the row's last support may still be landing
   // (lateWrite): that write is forwarded.
-  val listWord = list.read(listPtrNext)
+  val listWord = RegNext(list.read(listPtrNext))
   val listHit = RegNext(listWen && listWaddr === listPtrNext, false.B)
   val listWritten = RegNext(listWdata)
   val entry = Reg(UInt((idxW + dBits).W)) // past the last entry (k = n) it holds a value that is not used

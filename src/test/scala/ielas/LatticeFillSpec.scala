@@ -1,5 +1,6 @@
 package ielas
 
+import chisel3._
 import org.scalatest.flatspec.AnyFlatSpec
 
 import java.nio.file.Path
@@ -37,6 +38,35 @@ class LatticeFillSpec extends AnyFlatSpec {
   }
   it should "match the golden filled lattice at config small with the paper's fill rule (sDelta 20 px)" in {
     runSuite(paperParams)
+  }
+  it should "forward a row's last support to the walk that starts on that row as it lands (fill rule r7, by hand)" in {
+    // Rows arrive slowly (90 % input gaps), so the walk waits for each row and reads its first list entry in the
+    // cycle the row's last write lands. Every row but row 0 has one support, its last node: that entry is the write.
+    // Expected by hand from the r7 rule: a row with one support takes its value at every node.
+    import StreamTester._
+    val p = ElasParams.byName("small")
+    val (w, h) = (32, 40)
+    val (cols, rows) = (p.latticeCount(w), p.latticeCount(h))
+    def support(j: Int): Int = if (j == 0) 7 else 10 + j
+    val lattice = for (j <- 0 until rows; i <- 0 until cols)
+      yield (if ((j == 0 && i == 0) || (j > 0 && i == cols - 1)) support(j) else -1, i == cols - 1, j == rows - 1)
+    val expected = for (j <- 0 until rows; _ <- 0 until cols) yield BigInt(support(j))
+    val rnd = new Random(seed)
+    simulate(LatticeFill(p), tmpDir("interp-last-support")) { dut =>
+      reset(dut)
+      poke(dut.io.frameWidth, BigInt(w)); poke(dut.io.frameHeight, BigInt(h))
+      for (frame <- 0 until 2) {
+        val got = Array.fill[BigInt](expected.size)(-2)
+        StreamTester.run[Framed[SInt], Framed[SInt], ((Int, Boolean, Boolean), Int), BigInt](dut.clock, dut.io.in,
+          lattice.zipWithIndex.iterator, { case (b, ((v, eol, lastRow), k)) =>
+            poke(b.data, BigInt(v)); poke(b.sof, k == 0); poke(b.eol, eol); poke(b.eof, eol && lastRow) },
+          dut.io.out, expected.size, b => peek(b.data), (k, v) => got(k.toInt) = v, Traffic(0.9, 0.2), rnd,
+          100L * expected.size, s"last support, frame $frame")
+        val wrong = expected.indices.filter(k => got(k) != expected(k))
+        assert(wrong.isEmpty, s"frame $frame: ${wrong.size} of ${expected.size} nodes wrong, first " +
+          wrong.headOption.map(k => s"row ${k / cols} node ${k % cols}: ${got(k)}, expected ${expected(k)}").getOrElse(""))
+      }
+    }
   }
 }
 
