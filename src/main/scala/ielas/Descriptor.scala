@@ -94,11 +94,11 @@ class Descriptor(p: ElasParams) extends Module {
   }
 
   // ---- line buffer: word at column x = pixel rows y-1 (slot 0) .. y-2m (slot 2m-1) of both views ----
-  val lines = SyncReadMem(p.maxWidth, Vec(bufferedRows, UInt(16.W)))
-  val readData = lines.read(stepCol, step)
-  val readLastCycle = RegNext(step, false.B)
-  val heldData = RegEnable(readData, readLastCycle) // the read data is valid one cycle only; s1 may stall longer
-  val pastRows = Mux(readLastCycle, readData, heldData)
+  // A read-first `Mem` read into a register that holds the word while s1 stalls (Yosys' block-RAM read register
+  // with its enable): nothing but that register sits between the block RAM and the Sobel sums. A step never reads
+  // the column s1 writes in its cycle (it reads the next one), so no transparency is needed.
+  val lines = Mem(p.maxWidth, Vec(bufferedRows, UInt(16.W)))
+  val pastRows = RegEnable(lines.read(stepCol), step)
 
   when(s1Advance) { s1Valid := false.B }
   when(step) {
