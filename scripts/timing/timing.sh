@@ -3,7 +3,7 @@
 # Usage: scripts/timing/timing.sh CONFIG [VERILOG_DIR]     (docs/timing.md explains the numbers)
 # Environment: TIMING_MODULES=A,B (some stages only), TIMING_TOP=0 (no whole-top row), TIMING_FREQ (MHz, 200),
 #              TIMING_TIMEOUT (s per tool run, 3600), TIMING_DOC (page to write, docs/timing.md; empty = none),
-#              TIMING_CACHE (build/timing/cache), TIMING_FIRST=A,B (run these modules first; default: smallest first),
+#              TIMING_CACHE (timing-cache, committed: docs/timing.md is rebuilt from it), TIMING_FIRST=A,B (run these modules first; default: smallest first),
 #              TIMING_EXPAND=A,B (stages whose submodules get rows of their own; default PostProcess),
 #              TIMING_ALSO="CONFIG:A,B ..." (also place A and B at CONFIG, Verilog in build/verilog/CONFIG).
 set -euo pipefail
@@ -27,7 +27,7 @@ fi
 
 args=(--config "$name" --verilog "$verilog" --venv "$VENV"
       --freq "${TIMING_FREQ:-200}" --timeout "${TIMING_TIMEOUT:-3600}"
-      --cache "${TIMING_CACHE:-build/timing/cache}" --doc "${TIMING_DOC-docs/timing.md}")
+      --cache "${TIMING_CACHE:-timing-cache}" --doc "${TIMING_DOC-docs/timing.md}")
 [ -n "${TIMING_MODULES:-}" ] && args+=(--modules "$TIMING_MODULES")
 [ "${TIMING_TOP:-1}" = 0 ] && args+=(--no-top)
 [ -n "${TIMING_FIRST:-}" ] && args+=(--first "$TIMING_FIRST")

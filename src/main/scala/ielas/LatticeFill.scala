@@ -309,10 +309,17 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
     divNum := Cat(divNum(dBits - 2, 0), ge)
     divCnt := divCnt + 1.U
     when(divCnt === (dBits - 1).U) {
-      val q0 = Cat(divNum(dBits - 2, 0), ge).zext
-      // floor and a non-negative remainder for a negative D
-      qd := Mux(divNeg, Mux(rem === 0.U, -q0, -q0 - 1.S), q0)
-      rd := Mux(divNeg && rem =/= 0.U, g - rem, rem) << 1
+      // floor and a non-negative remainder for a negative D: qd = -q0 (rem = 0) or -q0 - 1, rd = 2 (g - rem). Both
+      // outcomes of the last step's compare are formed from registers beside it, which then only selects one: with
+      // q0 = 2n + ge, -q0 = -2n - ge; rem = shifted - g or shifted, g - rem = 2g - shifted or g - shifted.
+      val twiceN = Cat(divNum(dBits - 2, 0), 0.U(1.W)).zext
+      val (zeroIfGe, zeroIfLt) = (shifted === g, shifted === 0.U)
+      val qdIfLt = Mux(divNeg, Mux(zeroIfLt, -twiceN, -twiceN - 1.S), twiceN)
+      val qdIfGe = Mux(divNeg, Mux(zeroIfGe, -twiceN - 1.S, -twiceN - 2.S), twiceN + 1.S)
+      qd := Mux(ge, qdIfGe, qdIfLt)
+      val rdIfLt = Mux(divNeg && !zeroIfLt, g - shifted, shifted)
+      val rdIfGe = Mux(divNeg && !zeroIfGe, (g << 1) - shifted, shifted - g)
+      rd := Mux(ge, rdIfGe, rdIfLt) << 1
       segQ := aVal.zext
       segR := g
       segReady := true.B

@@ -14,11 +14,12 @@ import chisel3.util._
   * Buffer: slots = 2k + 2 lattice rows, one memory per row slot (rows j-k .. j+k are read while row j+k+1 is
   * written into the remaining slot):
   *   buffer bits = (2k + 2) x latticeColsMax x (dispBits + 1)   (kitti: 12 x 250 x 9 = 27,000 bits).
-  * Per node: one cycle reads the centre column, then one column of 2k+1 rows per cycle goes through two counting
-  * stages (agreement bit per row, then their sum into the count), plus one drain cycle: 2k + 5 cycles for a support
-  * node (15 at k = 5), 3 for an empty node, against an average of step^2 = 25 pixel clocks per node at 1 pixel per
-  * clock. The input stalls only when the row slot to be written is still
-  * inside the window being filtered (or a new frame arrives while the previous one is still being filtered).
+  * Per node: the centre column is read while the previous node is emitted, then one column of 2k+1 rows per cycle
+  * is read and held in registers, and goes through two counting stages (agreement bit per row, then their sum into
+  * the count): 2k + 5 cycles for a support node (15 at k = 5), 3 for an empty node, against an average of
+  * step^2 = 25 pixel clocks per node at 1 pixel per clock (a frame's first node, and a row's first node whose window
+  * rows have not all arrived, wait a cycle more in sCentre). The input stalls only when the row slot to be written
+  * is still inside the window being filtered (or a new frame arrives while the previous one is still being filtered).
   */
 class SupportFilter(p: ElasParams) extends Module {
   private val k = p.inconWindowSize
@@ -85,31 +86,44 @@ class SupportFilter(p: ElasParams) extends Module {
   ahead.update(start, rowIn, rowOut)
 
   // ---- filtering ----
-  val sIdle :: sCentre :: sFirst :: sScan :: sCount :: sEmit :: Nil = Enum(6)
+  val sIdle :: sCentre :: sFirst :: sLoad :: sScan :: sDrain :: sCount :: sEmit :: Nil = Enum(8)
   val state = RegInit(sIdle)
   val procI = RegInit(0.U(colW.W))
   val procSlot = RegInit(0.U(log2Ceil(slots).W))
   val readCol = Wire(UInt(colW.W))
   readCol := procI
   val readData = rowMems.map(_.read(readCol(log2Ceil(colsMax) - 1, 0)))
+  // Every column read is held a cycle: the block RAMs' outputs meet only a register, and the centre's slot
+  // multiplexer and the agreeing range's adders start at flip-flops. A register fed by a memory's word alone is
+  // merged into the memory by Yosys (its memory_dff pass), which moves it in front of the RAM and leaves the word's
+  // path as it was, so the register takes the last written value instead while the stage is idle (when the held
+  // words are not used): a 2:1 multiplexer that keeps the register in the fabric.
+  val heldIdle = RegNext(state === sIdle, true.B)
+  val readHeld = RegNext(VecInit(readData.map(w => Mux(heldIdle, wrData, w))))
 
   val centre = Reg(valueType)
   val count = Reg(UInt(log2Ceil((2 * k + 1) * (2 * k + 1) + 1).W))
   val scanCol = Reg(UInt(colW.W)) //  next column to read
   val scanLast = Reg(UInt(colW.W)) // last column of the window
   val lastRead = RegInit(false.B) //  the column read last cycle was the window's last
-  // the window's first and last column, registered (procI is stable in sCentre, the cycle before sFirst)
-  val firstCol = RegNext(Mux(procI > k.U, procI - k.U, 0.U))
-  val lastCol = RegNext(Mux(procI +& k.U < lw, procI + k.U, lw - 1.U))
+  // The next node's column, read in sEmit (its centre, so that sFirst follows sEmit directly).
+  val emitEol = procI === lw - 1.U
+  val nextCol = Mux(emitEol, 0.U, procI + 1.U)
+  // the window's first and last column, registered, of the node whose centre is read now (sCentre or sEmit, the
+  // cycle before sFirst)
+  val centreCol = Mux(state === sEmit, nextCol, procI)
+  val firstCol = RegNext(Mux(centreCol > k.U, centreCol - k.U, 0.U))
+  val lastCol = RegNext(Mux(centreCol +& k.U < lw, centreCol + k.U, lw - 1.U))
 
   val rowReady = frameDone || rowsIn > procJ +& k.U
   // Agreement is counted per row slot, not per window row: the window's 2k + 1 rows sit in distinct slots, so the
   // count is the same, and each slot's comparison runs straight off its memory (no slot multiplexer per window row
   // between the memories and the comparisons). Slot procSlot + d (mod slots) holds window row d (d <= k) or
   // d - slots (d >= k + 2); d = k + 1 is outside the window. Whether that row exists is fixed once rowReady holds
-  // (rows up to procJ + k are in, or the frame is complete), so it is set in sCentre, every cycle until then.
+  // (rows up to procJ + k are in, or the frame is complete), so it is set in sCentre, every cycle until then, and
+  // in sFirst (a row's first node may come straight from sEmit; its first agreement bits are formed two cycles on).
   val slotInWindow = Reg(Vec(slots, Bool()))
-  when(state === sCentre) {
+  when(state === sCentre || state === sFirst) {
     val rowExists = (0 until slots).map { d =>
       if (d <= k) rowsAhead > d.U // row procJ + d < rowsIn
       else if (d == k + 1) false.B
@@ -119,9 +133,14 @@ class SupportFilter(p: ElasParams) extends Module {
   }
   val lo = Reg(SInt((p.dispBits + 2).W)) // max(centre - inconThreshold, 0): also excludes the empty nodes (-1)
   val hi = Reg(SInt((p.dispBits + 2).W)) // centre + inconThreshold
-  // Counting, two stages: the column read last cycle -> one agreement bit per slot -> count.
-  val agree = RegNext(VecInit(readData.zip(slotInWindow).map { case (v, ok) => ok && v >= lo && v <= hi }))
-  val agreeValid = RegNext(state === sScan, false.B)
+  // Counting, two stages: the column held (read two cycles ago) -> one agreement bit per slot -> count. A window
+  // column is read in sFirst, sLoad and sScan until the last (lastRead); its bits count only when the node holds a
+  // support (known in sLoad, before the first held column is compared).
+  val windowRead = state === sFirst || ((state === sLoad || state === sScan) && !lastRead)
+  val windowHeld = RegNext(RegNext(windowRead, false.B), false.B)
+  val counting = RegInit(false.B) // the node in the scan holds a support
+  val agree = RegNext(VecInit(readHeld.zip(slotInWindow).map { case (v, ok) => ok && v >= lo && v <= hi }))
+  val agreeValid = RegNext(windowHeld && counting, false.B)
   when(agreeValid) { count := count + PopCount(agree) }
 
   val outValid = RegInit(false.B)
@@ -139,7 +158,8 @@ class SupportFilter(p: ElasParams) extends Module {
     outBits.sof := procI === 0.U && procJ === 0.U
     outBits.eol := eol
     outBits.eof := eof
-    state := sCentre
+    // the next node's centre column is read now (nextCol): sFirst follows when its window rows are all in
+    state := Mux(eol && !(frameDone || rowsAhead > (k + 1).U), sCentre, sFirst)
     procI := procI + 1.U
     when(eol) {
       rowOut := true.B
@@ -157,36 +177,39 @@ class SupportFilter(p: ElasParams) extends Module {
     is(sCentre) { // reading the centre column of node (procJ, procI)
       when(rowReady) { state := sFirst }
     }
-    is(sFirst) {
-      val v = VecInit(readData)(procSlot) // the centre node
-      centre := v
-      val vLo = v -& p.inconThreshold.S
-      lo := Mux(vLo < 0.S, 0.S, vLo)
-      hi := v +& p.inconThreshold.S
-      readCol := firstCol // the window's first column (read for nothing when the node is empty)
+    is(sFirst) { // the centre column arrives (held next cycle); the window's first column is read
+      readCol := firstCol
       count := 0.U
-      when(v < 0.S) {
-        state := sEmit // count 0 < inconMinSupport: emits -1 (from sEmit, as the read above moves on)
-      }.otherwise {
-        scanCol := Mux(firstCol === lastCol, firstCol, firstCol + 1.U)
-        scanLast := lastCol
-        lastRead := firstCol === lastCol
-        state := sScan
-      }
+      scanCol := Mux(firstCol === lastCol, firstCol, firstCol + 1.U)
+      scanLast := lastCol
+      lastRead := firstCol === lastCol
+      state := sLoad
     }
-    is(sScan) { // the column read last cycle goes to the counting stages, read the next one
-      // after the window's last column it is read again (the read address stays off lastRead and in range)
+    is(sLoad, sScan) { // read the window's next column; after its last it is read again (the address stays in range)
       readCol := scanCol
       scanCol := Mux(scanCol === scanLast, scanCol, scanCol + 1.U)
       lastRead := scanCol === scanLast
-      when(lastRead) { state := sCount }
+      when(lastRead) { state := sDrain }.otherwise { state := sScan }
     }
-    is(sCount) { state := sEmit } // the last column's agreement bits are added to count
+    is(sDrain) { state := sCount } // the last column is held, then compared
+    is(sCount) { state := sEmit } //  its agreement bits are added to count
     is(sEmit) {
+      readCol := nextCol
       emit(Mux(count >= p.inconMinSupport.U, centre, (-1).S))
     }
   }
-  // sCentre reads procI (the default), sFirst the first column; a stall in sEmit reads nothing useful.
+  // sLoad: the centre node, held from the read in sCentre or sEmit, sets the agreeing range; an empty node emits -1
+  // (count 0 < inconMinSupport) from sEmit, and the reads it started count for nothing.
+  when(state === sLoad) {
+    val v = readHeld(procSlot)
+    centre := v
+    val vLo = v -& p.inconThreshold.S
+    lo := Mux(vLo < 0.S, 0.S, vLo)
+    hi := v +& p.inconThreshold.S
+    counting := v >= 0.S
+    when(v < 0.S) { state := sEmit }
+  }
+  // sCentre reads procI (the default), sEmit the next node's centre; a stall in sEmit reads it again.
 }
 
 object SupportFilter {
