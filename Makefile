@@ -161,7 +161,9 @@ timing: CONFIG = small
 # small-w3-c8 at 84 % did not route).
 comma := ,
 TIMING_DERIVE ?= $(if $(filter small,$(CONFIG)),tiny-w3-c8:small-w3:cyclesPerPixel=8$(comma)maxWidth=64$(comma)maxHeight=48)
-TIMING_ALSO ?= $(if $(filter small,$(CONFIG)),small-c4:DenseMatcher tiny-w3-c8:IElas)
+# At small, the stages that fit the part at kitti are placed there too (the largest named configuration).
+TIMING_KITTI := FrameGuard,Descriptor,SupportFilter,LatticeFill,GridVector,Planes,LrCheck,PostProcess,PostProcessSpeckle,PostRowGaps,PostColumnGaps,PostMean,PostMean_1,FrameSizeTable
+TIMING_ALSO ?= $(if $(filter small,$(CONFIG)),small-c4:DenseMatcher tiny-w3-c8:IElas kitti:$(TIMING_KITTI))
 timing: deps-synth ## ECP5 post-route fmax and 7-series logic-only STA per stage (CONFIG default small) -> docs/timing.md
 	@$(MAKE) --no-print-directory verilog CONFIG=$(CONFIG)
 	@for d in $(TIMING_DERIVE); do $(call SBT_RUN,"run config $(CURDIR)/build/configs-extra $$d") || exit 1; done

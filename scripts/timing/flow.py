@@ -268,11 +268,15 @@ def load_entry(path, key):
     return result
 
 
+USED_ENTRIES = set()  # the cache files this run looked up (what --prune keeps)
+
+
 def cached(design, module, kind, salt, args, runner):
     """A module's result from the cache, else from runner (cached unless it failed for a reason that may pass on a
     rerun: a tool error or time limit; `does_not_fit` is a result and is cached)."""
     key = design.content_hash(module, f"timing|{FLOW_VERSION}|{kind}|{salt}")
     entry = os.path.join(args.cache, f"{module}-{kind}-{key[:16]}.json")
+    USED_ENTRIES.update({os.path.abspath(entry), os.path.abspath(entry[:-len(".json")] + ".attempt.json")})
     result = load_entry(entry, key)
     if result:
         return result
@@ -554,6 +558,9 @@ def markdown(report):
         "scripts/timing/timing.sh small [build/verilog/small]   # the flow alone, on Verilog already emitted",
         "TIMING_MODULES=LrCheck,PostProcess make timing # some stages only (TIMING_TOP=0: without the whole top)",
         "python3 scripts/timing/test_timing.py          # the parser and wrapper tests (no place and route)",
+        "# this page again from the committed cache (timing-cache/), no tool run; --prune drops entries no row uses:",
+        "python3 scripts/timing/flow.py --config small --verilog build/verilog/small --cached-only --prune \\",
+        "  --expand PostProcess --also small-c4:DenseMatcher --also tiny-w3-c8:IElas --also kitti:<the stages above>",
         "```", "",
         "Outputs: `build/timing/<config>/timing.json` (everything on this page and more: cell counts, full path "
         "ends, nextpnr command), `build/timing/<config>/{xc7,ecp5}/<module>/` (scripts, logs, nextpnr report).", ""]
@@ -589,6 +596,10 @@ def main():
                     "smallest first, the top last)")
     ap.add_argument("--cached-only", action="store_true",
                     help="run no tool: report what the cache holds (a module without a cached result is 'not run')")
+    ap.add_argument("--prune", action="store_true",
+                    help="with --cached-only and the whole page (no --modules): delete the cache entries no row of "
+                    "the page uses (results of Verilog that is no longer generated), so the committed cache stays "
+                    "the page's evidence")
     ap.add_argument("--timeout", type=int, default=3600, help="wall-clock limit per tool run, seconds")
     ap.add_argument("--mem-mb", type=int, default=12000, help="address-space limit of each Yosys 0.23 run")
     ap.add_argument("--also", action="append", default=[], metavar="CONFIG:MODULE,MODULE",
@@ -596,6 +607,8 @@ def main():
                     "a row of its own after the module's row: for a module that does not fit the part at --config")
     args = ap.parse_args()
     args.out = args.out or os.path.join("build", "timing", args.config)
+    if args.prune and (not args.cached_only or args.modules or not args.doc):
+        ap.error("--prune needs --cached-only, a --doc page and no --modules (it keeps only what the page uses)")
     start = time.time()
     try:
         design = verilog_modules.Design(args.verilog)
@@ -678,6 +691,12 @@ def main():
             os.makedirs(os.path.dirname(args.doc) or ".", exist_ok=True)
             with open(args.doc, "w") as fh:
                 fh.write(md)
+        if args.prune:
+            stale = [f for f in sorted(os.listdir(args.cache))
+                     if os.path.abspath(os.path.join(args.cache, f)) not in USED_ENTRIES]
+            for f in stale:
+                os.remove(os.path.join(args.cache, f))
+            print(f"timing: --prune removed {len(stale)} cache entries no row uses", flush=True)
         print(f"timing: wrote {os.path.join(args.out, 'timing.json')}, timing.md" +
               (f" and {args.doc}" if args.doc else "") + f" ({report['wall_seconds']:.0f} s)")
         failed = [r["module"] for r in report["rows"] if r["xc7"]["status"] == "error" or r["ecp5"]["status"] == "error"]

@@ -151,7 +151,7 @@ class SupportFilter(p: ElasParams) extends Module {
   io.out.bits := outBits
 
   def emit(value: SInt): Unit = when(outFree) {
-    val eol = procI === lw - 1.U
+    val eol = emitEol
     val eof = eol && frameDone && procJ === rowsIn - 1.U
     outValid := true.B
     outBits.data := value
