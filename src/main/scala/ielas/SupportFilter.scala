@@ -106,14 +106,18 @@ class SupportFilter(p: ElasParams) extends Module {
   val scanCol = Reg(UInt(colW.W)) //  next column to read
   val scanLast = Reg(UInt(colW.W)) // last column of the window
   val lastRead = RegInit(false.B) //  the column read last cycle was the window's last
-  // The next node's column, read in sEmit (its centre, so that sFirst follows sEmit directly).
+  // The next node's column, read in sEmit (its centre, so that sFirst follows sEmit directly), and its window, kept in
+  // registers: procI is stable from a node's sFirst on, and sEmit comes at least two cycles later.
   val emitEol = procI === lw - 1.U
-  val nextCol = Mux(emitEol, 0.U, procI + 1.U)
+  val nextCol = RegNext(Mux(emitEol, 0.U, procI + 1.U))
+  private def windowFirst(c: UInt): UInt = Mux(c > k.U, c - k.U, 0.U)
+  private def windowLast(c: UInt): UInt = Mux(c +& k.U < lw, c + k.U, lw - 1.U)
+  val nextFirst = RegNext(windowFirst(nextCol))
+  val nextLast = RegNext(windowLast(nextCol))
   // the window's first and last column, registered, of the node whose centre is read now (sCentre or sEmit, the
   // cycle before sFirst)
-  val centreCol = Mux(state === sEmit, nextCol, procI)
-  val firstCol = RegNext(Mux(centreCol > k.U, centreCol - k.U, 0.U))
-  val lastCol = RegNext(Mux(centreCol +& k.U < lw, centreCol + k.U, lw - 1.U))
+  val firstCol = RegNext(Mux(state === sEmit, nextFirst, windowFirst(procI)))
+  val lastCol = RegNext(Mux(state === sEmit, nextLast, windowLast(procI)))
 
   val rowReady = frameDone || rowsIn > procJ +& k.U
   // Agreement is counted per row slot, not per window row: the window's 2k + 1 rows sit in distinct slots, so the
