@@ -34,7 +34,7 @@ import chisel3.util._
   *   delay line   (L + 4) rows x W x (dispBits + 1 + idW)
   *   F maps       (L + 2) rows x W x (1 + max(idW, sW)), one memory per row, 2 read ports
   *   P, R         2 rows x W x idW each (R: 2 replicas);  K, S  3 rows x W x idW / sW (3 replicas each)
-  *   R valid flags 2 x W bits (registers)
+  *   R valid flags 2 x W bits (registers; each lookup reads its index from 16 copies, one per run of flags)
   *   row above    2^(colBits + 1) x (dispBits + 1 + idW) (A's last pixels again, >= 2 rows)
   *   output queue 3 L + 8 x (dispBits + 1 + 4 + colBits) (D's chain never stalls; D issues with a credit)
   * A is a pipeline of five steps, so that no step follows a chain of lookups (each about 6 LUT levels):
@@ -46,8 +46,9 @@ import chisel3.util._
   *    R_k[cls] and S_{k-1}[cls] are read.
   *  - A1: R_k[cls] (the word read, or the node A2 writes there now), the touched flag, the comparisons A2's decision
   *    needs; S_k of that node is read (the read includes A2's write-back of this cycle).
-  *  - A2: the label state (top node, its size) and the writes of R_k, P_k, S_k; it forwards its own touched-flag
-  *    write of the cycle in which A1 read (the same class touched first by the previous pixel).
+  *  - A2: the label state (top node, its size) and the writes of R_k, P_k, S_k; the touched flag is written a clock
+  *    later, from registers. A2 forwards its own flag write of the cycle in which A1 read (the same class touched
+  *    first by the previous pixel), A1 the write then in flight (the pixel before), and C1 the same.
   *  A row's first pixel is taken once the previous row's last pixel has left A0 (its AK reads of S_{k-1} then see
   *  A2's last writes), its second pixel once B1 works on row k - 1 or is past it (so from the second pixel on,
   *  K_{k-1} of the up node is written or is B2's current node: node ids are at most the column and B does one per
@@ -221,20 +222,19 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
         else RegNext(wen && wslot === slot && wx === x, false.B)
       (hit, written, word)
     }
-    /** The same as [[readParts]] a clock later, for a reader that knows its next entry: the read is issued at
-      * (slot, x), the entry it will hold next cycle, and its word is registered once more in the fabric, so the word
-      * leaves a flip-flop where it is used. The write of the issue cycle is compared with (slot, x), the write of the
-      * next with (nowSlot, nowX), the entry then held; `nowZero` (entry 0, whose word is 0 and needs no read) counts
-      * as a write of 0. */
-    def readEarly(reader: Int, slot: UInt, x: UInt, nowSlot: UInt, nowX: UInt, nowZero: Bool): (Bool, UInt, UInt) = {
+    /** The same as [[readParts]] a clock later and already merged, for a reader that knows its next entry: the read
+      * is issued at (slot, x), the entry it will hold next cycle, and the value (the word, or a write it missed) is
+      * registered in the fabric, so it leaves a flip-flop where it is used. The write of the issue cycle is compared
+      * with (slot, x), the write of the next with (nowSlot, nowX), the entry then held; `nowZero` (entry 0, whose
+      * word is 0 and needs no read) counts as a write of 0. Returns the register and its next value. */
+    def readEarly(reader: Int, slot: UInt, x: UInt, nowSlot: UInt, nowX: UInt, nowZero: Bool): (UInt, UInt) = {
       val word = Reg(UInt(width.W)); word := mems(reader).read(addr(slot, x))
-      val wordLate = Reg(UInt(width.W)); wordLate := word
       val hitEarly = RegNext(wen && wslot === slot && wx === x, false.B)
       val writtenEarly = Reg(UInt(width.W)); writtenEarly := wdata
       val hitNow = wen && wslot === nowSlot && wx === nowX
-      val hit = RegNext(nowZero || hitEarly || hitNow, false.B)
-      val written = Reg(UInt(width.W)); written := Mux(nowZero, 0.U, Mux(hitNow, wdata, writtenEarly))
-      (hit, written, wordLate)
+      val next = Mux(nowZero, 0.U, Mux(hitNow, wdata, Mux(hitEarly, writtenEarly, word)))
+      val held = Reg(UInt(width.W)); held := next
+      (held, next)
     }
   }
   // K: flat classes, 3 rows (B never waits for C to finish reading K_{k-2}); written by B2, read by A0, B1, C0.
@@ -244,24 +244,51 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // S: saturating sizes, 3 rows; written by A2, read by AK (S_{k-1}), A1 (S_k) and C1 (S_{k-1}).
   val sTab = new Table("sMem", 3, sW, 3, lateCompare = true)
   val rValid = Seq.fill(2)(RegInit(0.U(W.W))) // per R buffer: which classes row k has touched
-  /** The same lookup in two steps, for a register between them (a W:1 multiplexer is too deep for one step):
-    * `groups` picks the flag at the index's low `lo` bits in each group of 2^lo classes (at most 2^hiBits groups;
-    * one bit of each buffer, then the buffer), `pick` the group. */
-  private class RvSplit(hiBits: Int) {
+  // A buffer's clear (a row's start in A0, the virtual row's start) and A2's flag write land a clock late, from
+  // registers (see A2): the 2 x W flags' enables then start at flip-flops. `touchLate*` is the write in flight.
+  val rowClear = WireDefault(false.B); val virtualClear = WireDefault(false.B)
+  val touchLate = RegInit(false.B); val touchLateSlot = Reg(UInt(1.W)); val touchLateCls = Reg(UInt(idW.W))
+  /** The touched flag of a class in two steps, for a register between them (a W:1 multiplexer is too deep and too
+    * wide for one step): `groups` looks it up in each group of 2^lo classes (at most 2^hiBits groups), `pick` takes
+    * the group. The first step takes the buffer and the index's low bits from `copies` registers, loaded a clock
+    * ahead by `load`, each serving a run of adjacent chunks of flags: one index register driving a lookup across
+    * 2 x W flip-flops was a 7.8 ns net at kitti. Copy k holds its value XOR k, undone by its chunks' wiring, so the
+    * copies differ and synthesis does not merge them back into one register. */
+  private class FlagLookup(hiBits: Int, copies: Int) {
     val lo: Int = idW - math.min(hiBits, idW)
     val count: Int = (W + (1 << lo) - 1) >> lo
-    def groups(buf: UInt, idx: UInt): UInt = {
-      // the buffer is chosen first: it is a register, the index may come from a block RAM
-      val flags = Mux(buf === 1.U, rValid(1), rValid(0))
-      VecInit((0 until W by (1 << lo)).map(g => bitAt(flags(math.min(W, g + (1 << lo)) - 1, g), idx))).asUInt
+    private val cb = math.min(5, lo) // a chunk: 2^cb classes of both buffers
+    private val chunks = (W + (1 << cb) - 1) >> cb
+    private val perCopy = {
+      val n = math.min(copies, 2 << cb) // the keys must be distinct
+      (chunks + n - 1) / n
+    }
+    private val nCopies = (chunks + perCopy - 1) / perCopy
+    /** The copies for next cycle's lookup of (buf, idx). */
+    def load(buf: UInt, idx: UInt): Seq[UInt] = {
+      val key = if (cb == 0) buf else Cat(buf, idx(cb - 1, 0))
+      Seq.tabulate(nCopies) { k => val r = Reg(UInt((cb + 1).W)); r := key ^ k.U((cb + 1).W); r }
+    }
+    def groups(copies: Seq[UInt], idx: UInt): UInt = {
+      val chunkBits = (0 until chunks).map { c =>
+        val k = c / perCopy
+        val flags = Seq.tabulate(2 << cb) { i =>
+          val j = (c << cb) + (i & ((1 << cb) - 1))
+          if (j < W) rValid(i >> cb)(j) else false.B
+        }
+        bitAt(VecInit(Seq.tabulate(2 << cb)(i => flags(i ^ k))).asUInt, copies(k))
+      }
+      VecInit(chunkBits.grouped(1 << (lo - cb)).map { g =>
+        if (g.size == 1) g.head else bitAt(VecInit(g).asUInt, idx(lo - 1, cb))
+      }.toSeq).asUInt
     }
     def pick(groups: UInt, idx: UInt): Bool =
       if (count == 1) groups(0) else VecInit(groups.asBools.take(count))(idx(idW - 1, lo))
   }
   // C: 32 groups (its pick has time in C2; C1's step follows a block-RAM read); A: 4 groups (the pick is one LUT in
   // A2's decision)
-  private val rvC = new RvSplit(5)
-  private val rvA = new RvSplit(2)
+  private val rvC = new FlagLookup(5, 16)
+  private val rvA = new FlagLookup(2, 16)
   /** Bit idx of v as a tree of 4:1 multiplexers (two index bits per LUT level). */
   private def bitAt(v: UInt, idx: UInt): Bool = {
     var level: Seq[Bool] = v.asBools
@@ -371,6 +398,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val rvGroups = UInt(rvA.count.W); val rn = UInt(idW.W) // R_k flag (its first lookup step) and node of cls in A1
     val sPrev = UInt(sW.W) // S_{k-1}[cls]
     val hitPre = Bool() // the pixel then in A2 had the same class
+    val hitLate = Bool() // the pixel before that touched this class first (its flag write was not in A1's read)
     val neNode = Bool() // rn =/= node
     val eqT = Bool(); val eqN = Bool(); val eqR = Bool() // rn equals the pixel then in A2's top, node, rn
     // cls decoded in two parts (low clsLoBits bits, the rest), so A2's touched-flag write is an AND of two of these
@@ -447,7 +475,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val virtualStart = needVirtual && RegNext(rowOk && bOnRow && !inAKv && !inA1v && !inA2v, false.B)
   when(virtualStart) {
     needVirtual := false.B
-    for ((r, b) <- rValid.zipWithIndex) when(a2.cur === b.U) { r := 0.U }
+    virtualClear := true.B
     writeMeta(aD.cur, virtual = true.B, first = false.B, last = false.B, len = 0.U)
     metaN(aD.cur) := 0.U
     finAny(a3.cur) := false.B
@@ -473,7 +501,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     writeMeta(d, virtual = false.B, first = inA0.row === 0.U, last = inA0.row === frameH - 1.U,
       len = Mux(inA0.row +& (L - 1).U < frameH - 1.U, (L - 1).U, frameH - inA0.row))
     finAny(inA0.sl.s) := false.B
-    for ((r, b) <- rValid.zipWithIndex) when(inA0.sl.r === b.U) { r := 0.U }
+    rowClear := true.B
   }
   when(inA0v && inA0.lastCol) { tInc() } // T's slots: the next row's (T starts it once A0 is empty)
   when(inA0v) {
@@ -505,6 +533,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   inA1.rowStart := inAK.rowStart; inA1.lastCol := inAK.lastCol; inA1.valid := inAK.valid; inA1.newRun := inAK.newRun
   inA1.node := inAK.node; inA1.cls := cls
   inA1.connectU := inAK.upOk && inAK.upVal >= 0.S && similar(inAK.v, inAK.upVal)
+  val rvACopies = rvA.load(inAK.sl.r, cls) // for A1's flag lookup
 
   // ---- A1: the class's row-k entries ----
   // R_k[cls]: the word read in AK; S_k of that node is read now (and seen by A2: the read includes A2's write-back of
@@ -520,7 +549,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val (mHit, mWritten, mRead) = sTab.readParts(1, inA1.sl.s, rnRaw) // S_k[rn]: mWritten if mHit, else mRead
   inA2v := inA1v
   inA2.p := inA1
-  inA2.rvGroups := rvA.groups(inA1.sl.r, inA1.cls)
+  inA2.rvGroups := rvA.groups(rvACopies, inA1.cls)
+  // the touched-flag write of the pixel that left A2 last cycle lands only now (see touchLate below): A1's read
+  // does not hold it
+  inA2.hitLate := touchLate && touchLateSlot === inA1.sl.r && touchLateCls === inA1.cls
   inA2.rn := rnRaw
   inA2.sPrev := finS(inA1.sl.sPrev, inA1.cls, sPrevWord)
   // the next top is one of the current top, the node of the pixel in A2 or its rn: compare rn with each now
@@ -533,12 +565,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // ---- A2: label state ----
   // hitR: the previous pixel touched this class first (its R write is not in A1's read): then rn is that pixel's
   // pushed top, which is the top now (a first touch never merges).
-  val lastTouchNew = RegInit(false.B)
   val q = inA2.p
   val aP = q.sl.r; val aS = q.sl.s
   val topAnyBase = !q.rowStart && topAny
-  val hitR = inA2.hitPre && lastTouchNew
-  val rv = rvA.pick(inA2.rvGroups, q.cls) || hitR
+  val hitR = inA2.hitPre && touchLate
+  val rv = rvA.pick(inA2.rvGroups, q.cls) || hitR || inA2.hitLate
   // where the top came from in the previous cycle (T: kept, N: the pushed node, R: that pixel's rn)
   val topFrom = RegInit(0.U(2.W))
   val rnIsTop = hitR || Mux1H(Seq(topFrom === 0.U, topFrom === 1.U, topFrom === 2.U), Seq(inA2.eqT, inA2.eqN, inA2.eqR))
@@ -571,11 +602,22 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, topM, satAdd(topSize, v))))
   val newSize = Mux(useRead, readSum, sizeFromRegs)
   topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
-  lastTouchNew := inA2v && touchNew
+  // The flag write lands a clock later, from registers: per buffer one enable per group of 2^clsLoBits classes
+  // (decided now, so A2's decision drives 2 x 2^(idW - clsLoBits) registers, not 2 x W enables) and the class's
+  // one-hot low part. A1 forwards the write in flight (hitLate), C1 too (c2LateHit). A buffer's clear comes a clock
+  // late as well, so it keeps its order with the writes: it never meets one of its own buffer (asserted).
+  touchLate := inA2v && touchNew; touchLateSlot := aP; touchLateCls := q.cls
+  val touchLo = RegNext(inA2.clsLo)
+  for ((r, b) <- rValid.zipWithIndex) {
+    val groupEn = RegNext(VecInit(Seq.tabulate(1 << (idW - clsLoBits))(g =>
+      inA2v && touchNew && aP === b.U && inA2.clsHi(g))).asUInt, 0.U)
+    val clear = RegNext(rowClear && inA0.sl.r === b.U || virtualClear && a2.cur === b.U, false.B)
+    val mask = VecInit((0 until W).map(j => groupEn(j >> clsLoBits) && touchLo(j & ((1 << clsLoBits) - 1)))).asUInt
+    assert(!(clear && groupEn =/= 0.U), "speckle: a touched-flag write meets its buffer's clear")
+    r := Mux(clear, 0.U, r | mask)
+  }
   when(inA2v) {
     when(q.newRun && topAnyBase) { sTab.write(aS, top, topSize) } // the old top stops being the top
-    val touchMask = VecInit((0 until W).map(j => inA2.clsLo(j & ((1 << clsLoBits) - 1)) && inA2.clsHi(j >> clsLoBits))).asUInt
-    for ((r, b) <- rValid.zipWithIndex) when(aP === b.U && touchNew) { r := r | touchMask }
     when(touchNew) { rTab.write(aP, q.cls, pushTop) }
     when(q.newRun || touchOld) { pWen := true.B; pWSlot := aP; pWNode := pushTop; pWData := Mux(touchOld, rn, pushTop) }
     top := newTop
@@ -650,14 +692,14 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // K_{k-1}[x] is read a clock before C0 holds node x (at cxEff + 1, the node C0 holds next if the row goes on; a row
   // starts at node 0, whose class is 0), so the word reaches R's and S's read addresses from a flip-flop.
   val cxP1 = Reg(UInt((idW + 1).W)) // cx + 1
-  val (c1Hit, c1Written, c1Read) =
+  val (c1Class, c1ClassNext) =
     kTab.readEarly(2, c3.prev, Mux(cBusy, cxP1, 1.U)(idW - 1, 0), c3.prev, cxEff(idW - 1, 0), !cBusy)
-  val c1Class = Mux(c1Hit, c1Written, c1Read)
   when(cActive) {
     when(cxEff + 1.U >= cPrevN) { cBusy := false.B }
       .otherwise { cBusy := true.B; cx := cxEff + 1.U; cxP1 := cxEff + 2.U }
   }
   val cRbuf = c2.cur
+  val rvCCopies = rvC.load(c2.next, c1ClassNext) // for C1's flag lookup
   val cSbuf = c3.prev
   // C1
   val rWordC = rTab.read(1, cRbuf, c1Class)
@@ -665,15 +707,14 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val c2v = RegNext(c1v, false.B)
   c2Last := c1Last
   val c2x = RegNext(c1x)
-  // the touched flag in two steps: the group flags now (from the class read), the group in C2
-  // (formed from each of the class's sources and selected in C2, so the block RAM's word meets only the lookup)
-  val c2OpenGroupsRead = Reg(UInt(rvC.count.W)); c2OpenGroupsRead := rvC.groups(cRbuf, c1Read)
-  val c2OpenGroupsWritten = Reg(UInt(rvC.count.W)); c2OpenGroupsWritten := rvC.groups(cRbuf, c1Written)
-  val c2Hit = RegNext(c1Hit)
+  // the touched flag in two steps: the group flags now, the group in C2; and A2's flag write in flight, which the
+  // flags do not hold yet (C1 may read a row's flags a clock after its last pixel's decision)
+  val c2OpenGroups = Reg(UInt(rvC.count.W)); c2OpenGroups := rvC.groups(rvCCopies, c1Class)
+  val c2LateHit = RegNext(touchLate && touchLateSlot === cRbuf && touchLateCls === c1Class, false.B)
   val c2Class = RegNext(c1Class)
   val c2Fin = RegNext(finAny(cSbuf)) && c2Class === RegNext(finTop(cSbuf)) // compared in C2, after registers
   // C2
-  val c2Open = rvC.pick(Mux(c2Hit, c2OpenGroupsWritten, c2OpenGroupsRead), c2Class)
+  val c2Open = rvC.pick(c2OpenGroups, c2Class) || c2LateHit
   val cEntry = Mux(c2Open, Cat(0.U(1.W), rWordC.pad(fW)), Cat(1.U(1.W), Mux(c2Fin, finSize(cSbuf), sWordC).pad(fW)))
   // C3 registers the entry (the multiplexer after the S and R block-RAM reads stays off the long nets); C4 is one
   // register per map, loaded only for its own slot (so synthesis keeps them apart and places each by its map), and

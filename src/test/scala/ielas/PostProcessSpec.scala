@@ -150,7 +150,8 @@ object PostProcessSpec {
 
   /** Seeded lrcheck maps no image pair gives on demand (values 0..dispMax, -1 invalid), for the golden `ielas-post`
     * tool: thin vertical segments taller than the L-row window, combs and nested U shapes (many merges in one row),
-    * gaps of every length around the row gap, G and the frame edges, and random speckle.
+    * gaps of every length around the row gap, G and the frame edges, random speckle, and classes first touched by
+    * their row's last pixel.
     */
   def syntheticMaps(p: ElasParams, rnd: Random): Seq[(String, Int, Int, Array[Int])] = {
     val dm = p.dispMax
@@ -206,7 +207,17 @@ object PostProcessSpec {
       val (x, y) = (i % w5, i / w5)
       if ((y / 8) % 4 == 3 && x % 16 < 2) -1 else (10 + 2 * (x % 2) + (if ((y / 8) % 4 == 1) x % 2 else 0)).min(dm)
     }
-    Seq(("one run per pixel 128x64", w5, h5, m5),
+    // 6: a class first touched by its row's last pixel: a full row, then a row whose only valid pixel is its last
+    // (joined to the row above), then a full row, then an invalid row. The forward map of the sparse row is built
+    // from the cycle after that pixel's decision, so its touch must be forwarded (128 + 1 + 128 pixels, kept, but
+    // the first row alone is below speckleSize 200)
+    val (w6, h6) = (128, 64)
+    val m6 = Array.tabulate(w6 * h6) { i =>
+      val (x, y) = (i % w6, i / w6)
+      val d = (7 + y / 4).min(dm)
+      y % 4 match { case 0 | 2 => d; case 1 => if (x == w6 - 1) d else -1; case _ => -1 }
+    }
+    Seq(("one run per pixel 128x64", w5, h5, m5), ("a class first touched by the row's last pixel 128x64", w6, h6, m6),
       ("thin tall segments 128x64", w1, h1, m1), ("combs and nested U shapes 128x64", w2, h2, m2),
       ("gaps at edges and around G 128x64", w3, h3, m3), ("random speckle 117x50", w4, h4, m4))
   }
