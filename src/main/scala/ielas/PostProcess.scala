@@ -12,8 +12,8 @@ import chisel3.util._
   * Latency in rows (steady state): (L + 2) + 1 + G + 3 = (L - 1) + G + 3 of the algorithm's look-ahead plus 4:
   * speckle's forward maps lag one row and its flattening one more (+ 3 over L - 1), and the row gap step needs its
   * row complete (+ 1); the first mean / median pass starts 4 columns behind its input.
-  * The steps' register stages add clock cycles, not rows (mean 9, median 2, row gaps 2 plus the register slice in
-  * front of them 1, column gaps 3; the ring steps read a row being written 2 columns behind it).
+  * The steps' register stages add clock cycles, not rows (mean 9, median 2, row gaps 2 plus the register slices
+  * before and after them 2, column gaps 3; the ring steps read a row being written 2 columns behind it).
   * See [[PostProcess.latencyRows]].
   */
 class PostProcess(p: ElasParams) extends Module {
@@ -43,8 +43,11 @@ class PostProcess(p: ElasParams) extends Module {
   speckleOut.bits.cols := speckle.io.outWidth
   rows.io.in <> RegisterSlice(speckleOut)
 
+  // and one between the row and column gap steps: the column step's ready (from its look-ahead state) would
+  // otherwise reach the row step's output register and its ring's write address in the same clock (84 MHz at
+  // `small` on the ECP5, 6 LUT levels across the two modules)
   val cols = Module(new PostColumnGaps(p))
-  cols.io.in <> rows.io.out
+  cols.io.in <> RegisterSlice(rows.io.out)
   var tail: DecoupledIO[PostBeat] = cols.io.out
   if (p.filterAdaptiveMean) {
     val h = Module(new PostMean(p, vertical = false))
