@@ -50,16 +50,16 @@ import chisel3.util._
   *    later, from registers. A2 forwards its own flag write of the cycle in which A1 read (the same class touched
   *    first by the previous pixel), A1 the write then in flight (the pixel before), and C1 the same.
   *  A row's first pixel is taken once the previous row's last pixel has left A0 (its AK reads of S_{k-1} then see
-  *  A2's last writes), its second pixel once B1 works on row k - 1 or is past it (so from the second pixel on,
-  *  K_{k-1} of the up node is written or is B2's current node: node ids are at most the column and B does one per
-  *  clock). B and C start a row while its last pixel is in A2, so a row takes W + 2 clocks when the engines keep up
+  *  A2's last writes), its second pixel a clock after B1 works on row k - 1 or is past it (so from the second pixel
+  *  on, K_{k-1} of the up node is written by the pixel's A0: node ids are at most the column and B does one per
+  *  clock). B and C start a row while its last pixel is in A2, so a row takes W + 3 clocks when the engines keep up
   *  (W before the pipeline). B works in two steps (B1: P_k[x] is there, K_k[P_k[x]] is read; B2: K_k[x] is written),
   *  C in five (the class, its entry, the entry registered, a register per map, then the map write, two clocks after
   *  the row's end).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus 3 L + 4 clocks of chain and A's steps; at W + 2 clocks a row that is within L + 2 rows of W
-  * for W >= 4 L + 10, and the 2 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
-  * ceil(2 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
+  * about W nodes), plus 3 L + 4 clocks of chain and A's steps; at W + 3 clocks a row that is within L + 2 rows of W
+  * for W >= 4 L + 10, and the 3 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
+  * ceil(3 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
   * Memories: every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
   * row and column, A's pixel count, B's node), at the address a pipeline step forms for the next step, or (D's ring)
   * from a lane's address register, the beat waiting a clock for its word. A read sees the writes of its own cycle: the row
@@ -359,9 +359,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // its size) and writes R, P, S. Only A2 is a recurrence. A's row slots advance when T ends a row and travel with
   // each pixel; aNext counts rows that have left A2 (what B, C and D wait for).
   // Row boundary: T takes row k's first pixel once row k - 1's last has left A0 (so that pixel's A1 reads of S_{k-1}
-  // follow A2's last writes of row k - 1), and its second pixel once B works on row k - 1 (or is past it). B and C
-  // start row k - 1 in the cycle its last pixel is in A2 (their reads of what A2 writes come a cycle later). So a row
-  // costs W + 1 clocks when the engines keep up.
+  // follow A2's last writes of row k - 1), and its second pixel a clock after B works on row k - 1 (or is past it).
+  // B and C start row k - 1 in the cycle its last pixel is in A2 (their reads of what A2 writes come a cycle later).
+  // So a row costs W + 3 clocks when the engines keep up.
   val inFrame = RegInit(false.B) // rows of a frame remain to be taken
   val needVirtual = RegInit(false.B) // the frame's last row is taken; the virtual row comes next
   val frameW = Reg(UInt(p.colBits.W)); val frameH = Reg(UInt(p.rowBits.W))
@@ -427,8 +427,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // row k = tNext: bNext >= k - 1, cNext + 1 >= k (or C writes its last entry of row k - 2 now), dDone + ND >= k + 1
   val rowOk = !aBusy && !inA0v && dBT.is(_ >= _, -1) && (dCT.is(_ >= _, -1) || dCT.is(_ === _, -2) && c2Last) &&
     dDT.is(_ >= _, 1 - ND)
-  // B works on row k - 1 or is past it (the second pixel of a row needs K_{k-1}, see A0)
+  // B works on row k - 1 or is past it (the second pixel of a row needs K_{k-1}, see AK); `bOnRowLate`: it did so a
+  // clock ago (T's row stays the same from the row's first pixel on, and B only moves on)
   val bOnRow = dBT.is(_ >= _, 0) || dBT.is(_ === _, -1) && bActive
+  val bOnRowLate = RegNext(bOnRow, false.B)
   val rowStartNow = !aBusy
   val col = Mux(aBusy, aCol, 0.U)
   // col === frameW - 1 and aRow === frameH - 1 as registers, set at the take a cycle before (compares with frameW - 2
@@ -441,7 +443,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val upPos = RegInit(0.U((p.colBits + 1).W)) // pixels taken, mod 2^(colBits + 1) >= 2 maxWidth
   val upWord = upRows.read(upPos - frameW)
   val aColIsOne = RegInit(false.B) // aCol === 1 (T waits for the row's second pixel), as a register
-  io.in.ready := inFrame && Mux(aBusy, !aColIsOne || bOnRow, rowOk)
+  io.in.ready := inFrame && Mux(aBusy, !aColIsOne || bOnRowLate, rowOk)
   val take = io.in.fire
   when(take) { aColIsOne := rowStartNow }
 
@@ -519,13 +521,18 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // ---- AK: the flat class cls = K_{k-1}[up node]; R_k[cls] and S_{k-1}[cls] are read ----
   // K_{k-1}[upId] is final: an up node id is at most the column, node 0 is always its own class, and from the second
-  // pixel on B works on row k - 1 (one node per clock, never stalling; T took the second pixel no earlier than B1's
-  // first cycle on the row) or is past it: the word read in A0 holds K_{k-1}[upId], or B2 computes it now (bypass).
-  // While a pixel of row k is in AK, B cannot have started row k, so B2 is on row k - 1 or done with it.
-  // the compares are made a cycle earlier (in A0, against B1: B2 holds next cycle what B1 holds now)
+  // pixel on B works on row k - 1 (one node per clock, never stalling; T took the second pixel at least a clock after
+  // B1's first cycle on the row) or is past it: B2 wrote node upId no later than this pixel's A0, so the word read
+  // there holds it (a write of that same cycle is forwarded by the table). The class thus comes from one block-RAM
+  // word, not also from B2's result (that bypass was the stage's critical path: B's K word -> A's class -> the R and
+  // S read addresses). While a pixel of row k is in AK, B cannot have started row k.
   val clsZero = RegNext(upId === 0.U)
-  val clsFromB = RegNext(b1v && b3.cur === inA0.sl.sPrev && bx === upId, false.B)
-  val cls = Mux(clsZero, 0.U, Mux(clsFromB, bComputed, kWordA))
+  val cls = Mux(clsZero, 0.U, kWordA)
+  // (B2 never computes the up node while the pixel is in AK: checked against B1 a cycle earlier, for the pixels
+  // that use the class; an invalid up pixel carries the last run's id, not a node at most its column)
+  val bComputesUp = RegNext(b1v && b3.cur === inA0.sl.sPrev && bx === upId, false.B)
+  assert(!(inAKv && inAK.upOk && inAK.upVal >= 0.S && !clsZero && bComputesUp),
+    "speckle: the up node's class is written after A0 read it")
   val rWordA = rTab.read(0, inAK.sl.r, cls)
   val sPrevWord = sTab.read(0, inAK.sl.sPrev, cls)
   inA1v := inAKv
@@ -913,9 +920,9 @@ object PostProcessSpeckle {
   def outEntries(p: ElasParams): Int = 3 * p.speckleWindowRows + 8
   def idBits(p: ElasParams): Int = log2Ceil(p.maxWidth)
   def sizeBits(p: ElasParams): Int = log2Ceil(p.speckleSize + 1) max 1
-  /** Rows of latency (input row -> output row): L + 2 rows of W, plus the 2 clocks per row the engines take beyond
-    * W, which add up to 2 maxHeight clocks over a frame taken at full rate. */
-  def latencyRows(p: ElasParams): Int = p.speckleWindowRows + 2 + (2 * p.maxHeight + p.maxWidth - 1) / p.maxWidth
+  /** Rows of latency (input row -> output row): L + 2 rows of W, plus the 3 clocks per row the engines take beyond
+    * W, which add up to 3 maxHeight clocks over a frame taken at full rate. */
+  def latencyRows(p: ElasParams): Int = p.speckleWindowRows + 2 + (3 * p.maxHeight + p.maxWidth - 1) / p.maxWidth
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = {
     val (w, idW, sW) = (p.maxWidth, idBits(p), sizeBits(p))
