@@ -233,12 +233,7 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
   private val pairStep = WireDefault(false.B) // an interpolated node advances the pair's (q, r)
   val eps = p.fillEpsilon
   val above = SyncReadMem(colsMax, UInt(dBits.W)) // the filled row above; node i read before it is rewritten
-  // read a clock before sRead, at the column the node will have there, and held from sRead on: sNode's jump compare
-  // then starts at a flip-flop (where the memory is LUT-RAM, as at tsukuba-d255, the read and the compare made 7
-  // LUT levels)
-  val upRead = above.read(col(Mux(state === sRowWait, 0.U, Mux(doEmit, i + 1.U, i))))
-  val up = Reg(UInt(dBits.W))
-  when(state === sRead) { up := upRead }
+  val up = above.read(col(i))
   val near = absDiff(aVal, bVal) <= eps.U
 
   // The pair's division: 2D = 2G qd + rd with 0 <= rd < 2G (D = bVal - aVal, G = bIdx - aIdx), then per node
