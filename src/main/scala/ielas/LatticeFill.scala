@@ -158,8 +158,12 @@ abstract class LatticeFill(p: ElasParams) extends Module {
   // decision (and the enables of the registers it loads) starts at flip-flops, not at a block-RAM output. A row's
   // first entry is read in the cycle its row becomes ready, when the row's last support may still be landing
   // (lateWrite): that write is forwarded.
-  val listWord = RegNext(list.read(listPtrNext))
-  val listHit = RegNext(listWen && listWaddr === listPtrNext, false.B)
+  // sRowWait reads the row's first entry every cycle, whether or not the row is ready: the read address does not
+  // wait for rowReady's compare of the row counters (that chain was 7 LUT levels at small).
+  protected val rowWaitAddr = WireDefault(slotBase(procSlot))
+  val listReadAddr = Mux(state === sRowWait, rowWaitAddr, listPtrNext)
+  val listWord = RegNext(list.read(listReadAddr))
+  val listHit = RegNext(listWen && listWaddr === listReadAddr, false.B)
   val listWritten = RegNext(listWdata)
   val entry = Reg(UInt((idxW + dBits).W)) // past the last entry (k = n) it holds a value that is not used
   when(state === sRead) { entry := Mux(listHit, listWritten, listWord) }
@@ -193,7 +197,7 @@ abstract class LatticeFill(p: ElasParams) extends Module {
     is(sRowWait) {
       when(rowReady) {
         i := 0.U; k := 0.U; aValid := false.B; uRaw := 0.U
-        listPtrNext := slotBase(procSlot)
+        listPtrNext := rowWaitAddr
         n := c(procSlot)
         useList := c(procSlot) =/= 0.U
         useAbove := procJ =/= 0.U
@@ -270,11 +274,12 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
   // The jump takes the one of lo = min(aVal, bVal), hi = max(aVal, bVal) nearer the value above, a tie to lo:
   // |hi - up| < |lo - up| exactly when
   // 2 up > lo + hi = aVal + bVal (for lo < hi; for lo = hi both give the same value), one add and one compare.
-  // As one choice of bVal or aVal: the jump takes bVal when "hi" and "b is the higher" agree.
+  // As one choice of bVal or aVal: the jump takes bVal when "hi" and "b is the higher" agree. The two are registered
+  // apart and compared in sEmit's select: the row above's read and the compare already fill sNode's clock.
   val jumpHi = useAbove && (up << 1) > (aVal +& bVal)
-  val jumpToB = jumpHi === (aVal < bVal)
   val selJump = Reg(Bool())
-  val jumpB = Reg(Bool())
+  val jumpHiReg = Reg(Bool())
+  val bHigher = Reg(Bool())
   val jumpA = Reg(UInt(dBits.W))
   val jumpBVal = Reg(UInt(dBits.W))
   when(state === sNode && !needDiv) {
@@ -282,7 +287,8 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
     selPair := useList && !bHere && both && near
     // the jump's choice is registered beside both candidates (choosing in sNode put it behind the list read)
     selJump := !(zeros || !useList || bHere || !aValid || !kIn)
-    jumpB := jumpToB
+    jumpHiReg := jumpHi
+    bHigher := aVal < bVal
     jumpA := aVal
     jumpBVal := bVal
     fixedVal := Mux(zeros, 0.U, Mux(!useList, up, Mux(bHere || !aValid, bVal, aVal)))
@@ -290,7 +296,7 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
     pairR := rNext
     state := sEmit
   }
-  value := Mux(selPair, pairQ.asUInt(dBits - 1, 0), Mux(selJump, Mux(jumpB, jumpBVal, jumpA), fixedVal))
+  value := Mux(selPair, pairQ.asUInt(dBits - 1, 0), Mux(selJump, Mux(jumpHiReg === bHigher, jumpBVal, jumpA), fixedVal))
 
   when(state === sNode && needDiv) {
     val gNew = bIdx - aIdx
@@ -339,10 +345,11 @@ class LatticeFillR7(p: ElasParams) extends LatticeFill(p) {
 
   rowReady := frameDone || Mux(procJ === 0.U, rowsIn >= 3.U, rowsIn > procJ)
   // row 0 (never a support row): the first of rows 1..2 with a support, filled without a row above
-  when(state === sRowWait && rowReady && procJ === 0.U && counts(0) === 0.U) {
-    val one = rowsIn > 1.U && counts(1) =/= 0.U
-    val two = rowsIn > 2.U && counts(2) =/= 0.U
-    listPtrNext := Mux(one, colsMax.U, (2 * colsMax).U)
+  val rowZeroFromBelow = procJ === 0.U && counts(0) === 0.U
+  val one = rowsIn > 1.U && counts(1) =/= 0.U
+  val two = rowsIn > 2.U && counts(2) =/= 0.U
+  when(rowZeroFromBelow) { rowWaitAddr := Mux(one, colsMax.U, (2 * colsMax).U) }
+  when(state === sRowWait && rowReady && rowZeroFromBelow) {
     n := Mux(one, counts(1), counts(2))
     useList := one || two
     zeros := !one && !two
