@@ -53,8 +53,14 @@ class Descriptor(p: ElasParams) extends Module {
   val s1Right = Reg(UInt(8.W))
   val s1Emit = Reg(Bool())
   val outValid = RegInit(false.B)
+  // The windows are the output register, and s1Advance enables about a thousand of their flip-flops. Were it to
+  // wait for io.out.ready, the consumer's ready would reach all of them in one clock (the whole top's critical path
+  // at 82 MHz). So s1 advances on local registers only: an output not taken when the windows move on is saved in a
+  // skid register, presented first, and s1 waits while it is full.
+  val skidValid = RegInit(false.B)
+  val skidBits = Reg(chiselTypeOf(io.out.bits))
 
-  val s1Advance = s1Valid && (!outValid || io.out.ready)
+  val s1Advance = s1Valid && !skidValid
   val s1Free = !s1Valid || s1Advance
 
   io.in.ready := s1Free && !flushing
@@ -168,7 +174,14 @@ class Descriptor(p: ElasParams) extends Module {
   val outEol = Reg(Bool())
   val outEof = Reg(Bool())
 
-  when(io.out.fire) { outValid := false.B }
+  val liveOut = Wire(chiselTypeOf(io.out.bits))
+  when(skidValid && io.out.ready) { skidValid := false.B }
+  when(!skidValid && io.out.ready) { outValid := false.B } // the live output, if any, is taken
+  when(s1Advance) {
+    skidBits := liveOut
+    skidValid := outValid && !io.out.ready // s1Advance implies an empty skid: the live output is presented
+    outValid := false.B
+  }
   when(startOfFrame) {
     outCol := 0.U
     outRow := 0.U
@@ -185,12 +198,13 @@ class Descriptor(p: ElasParams) extends Module {
     outRow := Mux(eof, 0.U, Mux(eol, outRow + 1.U, outRow))
   }
 
-  io.out.valid := outValid
-  io.out.bits.data.left := Mux(outInterior, leftBytes, 0.U)
-  io.out.bits.data.right := Mux(outInterior, rightBytes, 0.U)
-  io.out.bits.sof := outSof
-  io.out.bits.eol := outEol
-  io.out.bits.eof := outEof
+  liveOut.data.left := Mux(outInterior, leftBytes, 0.U)
+  liveOut.data.right := Mux(outInterior, rightBytes, 0.U)
+  liveOut.sof := outSof
+  liveOut.eol := outEol
+  liveOut.eof := outEof
+  io.out.valid := skidValid || outValid
+  io.out.bits := Mux(skidValid, skidBits, liveOut)
 }
 
 object Descriptor {
