@@ -258,7 +258,7 @@ object ElasParams {
     * SupportMatcher search pipeline's depth and the registered right-sweep setup). The row's first node, never
     * searched (it lies in the margin), takes one cycle of its supportCyclesPerPoint.
     */
-  val supportDrainCycles: Int = 9
+  val supportDrainCycles: Int = 10
 
   /** Cycles of one support sweep over disparities 0..dhi at the worst alignment: the target columns t - r .. t + r
     * of all of them span dhi + 2r + 1 columns, i.e. at most ceil((dhi + 2r) / lanes) + 1 aligned blocks.

@@ -31,9 +31,9 @@ import chisel3.util._
   * banks below (u - r) mod L read the next word) and kept in registers.
   *
   * Pipeline (for timing: at most two compare-selects per stage): issue (bank addresses registered) -> block read
-  * (read and output registers) -> A: every lane's 16 quarter-descriptor SADs -> A2: two half costs per lane -> B:
-  * lane costs and the lane tree's first level -> C, E: the rest of the lane tree, about half each -> merge into the
-  * running best. A sweep's result is final 8 cycles after its last block was issued. The right sweep (u' = u - d1)
+  * (read and output registers) -> A: every lane's 16 quarter-descriptor SADs -> A2: two half costs per lane -> B1:
+  * lane costs -> B: the lane tree's first level -> C, E: the rest of the lane tree, about half each -> merge into
+  * the running best. A sweep's result is final 9 cycles after its last block was issued. The right sweep (u' = u - d1)
   * always runs, without waiting for the left ratio and texture tests; a rejected left result is dropped at the node's
   * decision.
   * Schedule: every sweep follows its own reference read, and two nodes are in flight so that the read port never
@@ -321,8 +321,8 @@ class SupportMatcher(p: ElasParams) extends Module {
     when(refData) { refLo(kind) := column(data(kind), refDataC0); refHi(kind) := column(data(kind), refDataC0 + (2 * r).U) }
   }
 
-  // ---- search pipeline: issue (read) -> A: the four SADs per lane -> B: lane costs, first tree level -> C, E: the
-  // lane tree -> merge into the running best. A sweep's result is final 5 cycles after its last block is issued. ----
+  // ---- search pipeline: issue (read) -> A: the SAD parts per lane -> A2: half costs -> B1: lane costs -> B: first
+  // tree level -> C, E: the lane tree -> merge into the running best (the class comment gives the cycle count). ----
   class Tag extends Bundle {
     val left = Bool() //  the block belongs to a left sweep
     val first = Bool() // the sweep's first block
@@ -395,23 +395,28 @@ class SupportMatcher(p: ElasParams) extends Module {
   val a2Tag = RegEnable(aTag, aValid)
   val aSad = aParts.map(parts => RegEnable(VecInit(parts.grouped(2 * sadParts).map(SupportMatcher.sumTree).toSeq), aValid))
   val a2Lane = aLane.map { case (inSweep, d) => (RegEnable(inSweep, aValid), RegEnable(d, aValid)) }
-  // B: lane costs and the lane tree's first level (a lane's E2 is "none", so a pair's E2 is its larger E1)
+  // B1: lane costs, registered (adder and compare in one clock were SupportMatcher's worst path on the ECP5, whose
+  // lanes spread over a third of the device: 84 MHz at small)
+  val b1Valid = RegNext(a2Valid, false.B)
+  val b1Tag = RegEnable(a2Tag, a2Valid)
+  val laneCost = aSad.map(h => RegEnable(SupportMatcher.sumTree(h), a2Valid))
+  val b1Lane = a2Lane.map { case (inSweep, d) => (RegEnable(inSweep, a2Valid), RegEnable(d, a2Valid)) }
+  // B: the lane tree's first level (a lane's E2 is "none", so a pair's E2 is its larger E1)
   private val levels = log2Ceil(lanes)
   private val levelsB = 1
   private val levelsC = (levels - levelsB + 1) / 2
-  val bValid = RegNext(a2Valid, false.B)
-  val bTag = RegEnable(a2Tag, a2Valid)
+  val bValid = RegNext(b1Valid, false.B)
+  val bTag = RegEnable(b1Tag, b1Valid)
   // The first level compares the raw lane costs and folds "lane in the sweep" into the decision and the outputs, so
-  // no costInf multiplexer sits between the adder and the compare.
-  val laneCost = aSad.map(SupportMatcher.sumTree)
+  // no costInf multiplexer sits before the compare.
   require(levelsB == 1)
   val bBest = (0 until lanes by 2).map { k =>
-    val (ia, da) = a2Lane(k); val (ib, db) = a2Lane(k + 1)
+    val (ia, da) = b1Lane(k); val (ib, db) = b1Lane(k + 1)
     val (ea, eb) = (laneCost(k), laneCost(k + 1))
     // lane k + 1 wins (merge's rule on costs with costInf outside the sweep; it holds the smaller d when left)
-    val w = Mux(a2Tag.left, Mux(ib, !ia || eb <= ea, !ia), ib && (!ia || eb < ea))
+    val w = Mux(b1Tag.left, Mux(ib, !ia || eb <= ea, !ia), ib && (!ia || eb < ea))
     val eaOr = Mux(ia, ea, costInf); val ebOr = Mux(ib, eb, costInf)
-    RegEnable(best(Mux(w, ebOr, eaOr), Mux(w, db, da), Mux(w, eaOr, ebOr)), a2Valid)
+    RegEnable(best(Mux(w, ebOr, eaOr), Mux(w, db, da), Mux(w, eaOr, ebOr)), b1Valid)
   }
   // C, E: the rest of the lane tree (ascending lanes, ties to the smaller d), about half of its levels each
   val cValid = RegNext(bValid, false.B)
