@@ -60,9 +60,7 @@ import chisel3.util._
   * about W nodes), plus 3 L + 4 clocks of chain and A's steps; at W + 3 clocks a row that is within L + 2 rows of W
   * for W >= 4 L + 10, and the 3 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
   * ceil(3 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
-  * Memories: K, R, S, P and the row above are [[SlicedMem]]s, so a word that addresses the next table leaves its
-  * blocks without a multiplexer across blocks (at kitti each spans 2 to 5 blocks when stacked in depth).
-  * Every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
+  * Memories: every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
   * row and column, A's pixel count, B's node), at the address a pipeline step forms for the next step, or (D's ring)
   * from a lane's address register, the beat waiting a clock for its word. A read sees the writes of its own cycle: the row
   * above is a transparent SyncReadMem; the others are read-first (`Mem` read into a register, so Yosys emulates no
@@ -166,7 +164,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // last 2^(colBits + 1) pixels again (block RAM, 1R1W), so the large memory needs no second read port.
   // (the delay line is read-first, a `Mem` read into a register: D reads rows A has finished, never one A writes)
   val delay = Mem(ND * W, UInt((vW + idW).W))
-  val upRows = new SlicedMem(2 << p.colBits, vW + idW, syncRead = true, "upRows")
+  val upRows = SyncReadMem(2 << p.colBits, UInt((vW + idW).W))
   // F maps, one memory per row slot, {closed, size or node}. Chain stage i reads slot (seq + i) mod NF; stages of
   // one row read consecutive slots and only adjacent stages (across a row boundary) can meet on one slot, so two
   // read ports per slot suffice: even stages on port 0, odd stages on port 1.
@@ -177,7 +175,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // P: written by A, read by B only, at B's next node (one cycle ahead; block RAM). A's write of a node B reads next
   // cycle (A2's last pixels of the row B has just started) is forwarded.
   // read-first (`Mem` read into a register): the write of the read's own cycle is forwarded below (hit2) anyway
-  val pMem = new SlicedMem(2 * W, idW, syncRead = false, "pMem")
+  val pMem = Mem(2 * W, UInt(idW.W))
   val pWen = WireDefault(false.B); val pWSlot = WireDefault(0.U(1.W)); val pWNode = WireDefault(0.U(idW.W))
   val pWData = WireDefault(0.U(idW.W))
   // the write reaches the memory a cycle later, from registers (A's labelling logic stays off the RAM's address pins)
@@ -192,7 +190,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     * the write's decision, which multiplexed the write address), on the read address's path. */
   class Table(name: String, slots: Int, width: Int, readers: Int, lateCompare: Boolean) {
     private val depth = slots * W
-    private val mems = Seq.tabulate(readers)(i => new SlicedMem(depth, width, syncRead = false, s"${name}_$i"))
+    private val mems = Seq.tabulate(readers)(i => Mem(depth, UInt(width.W)).suggestName(s"${name}_$i"))
     // the address and data are don't-cares without a write, so they do not wait for the write's decision
     val wen = WireDefault(false.B)
     val wslot = Wire(UInt((log2Ceil(slots) max 1).W)); wslot := DontCare
