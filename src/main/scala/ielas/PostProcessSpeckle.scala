@@ -752,7 +752,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val sof = Bool(); val eol = Bool(); val eof = Bool(); val lastRow = Bool()
     val cols = UInt(p.colBits.W)
     val virt = Bool()
-    val endUnit = UInt((log2Ceil(NF) max 1).W) // the unit of its last step (L): (row sequence + L) mod NF
+    // the unit of its last step (L), (row sequence + L) mod NF, one-hot: the ring's result multiplexer is then an
+    // AND-OR from the shift line (decoded after it, it was 7 LUT levels at kitti-d127)
+    val endUnit = UInt(NF.W)
   }
   /** What the lookups change: the node (the segment's size once closed) and how many maps are still to apply. */
   class Look extends Bundle {
@@ -843,7 +845,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   s0.lastRow := dLast
   s0.cols := dWd
   s0.virt := dVirt
-  s0.endUnit := (if (NF > 2) Mux(dF.cur >= 2.U, dF.cur - 2.U, dF.cur + (NF - 2).U) else dF.cur) // (seq + L) mod NF
+  s0.endUnit := UIntToOH(if (NF > 2) Mux(dF.cur >= 2.U, dF.cur - 2.U, dF.cur + (NF - 2).U) else dF.cur, NF)
   val s0Look = Wire(new Look)
   s0Look.closed := false.B
   s0Look.ptr := word(idW - 1, 0)
@@ -897,7 +899,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // one more register: the ring's NF:1 result multiplexer has a clock of its own
   val lastValid = RegNext(endValid, false.B)
   val lastBeat = RegNext(endBeat)
-  val lastLook = RegNext(VecInit(units.map(_(L % 2).st))(endBeat.endUnit))
+  val lastLook = RegNext(Mux1H(endBeat.endUnit, units.map(_(L % 2).st)))
   when(lastValid) {
     val b = lastBeat
     val remove = b.value >= 0.S && lastLook.closed && lastLook.ptr < cap.U
