@@ -102,9 +102,11 @@ class Descriptor(p: ElasParams) extends Module {
   // ---- line buffer: word at column x = pixel rows y-1 (slot 0) .. y-2m (slot 2m-1) of both views ----
   // A read-first `Mem` read into a register that holds the word while s1 stalls (Yosys' block-RAM read register
   // with its enable): nothing but that register sits between the block RAM and the Sobel sums. A step never reads
-  // the column s1 writes in its cycle (it reads the next one), so no transparency is needed.
-  val lines = Mem(p.maxWidth, Vec(bufferedRows, UInt(16.W)))
-  val pastRows = RegEnable(lines.read(stepCol), step)
+  // the column s1 writes in its cycle (it reads the next one), so no transparency is needed. The word is stored as
+  // bit slices one block deep (`SlicedMem`): at kitti 1242 x 96 bits would otherwise be blocks stacked in depth, and
+  // their multiplexer would sit between the read register and the Sobel sums.
+  val lines = new SlicedMem(p.maxWidth, bufferedRows * 16, syncRead = false, "lines")
+  val pastRows = RegEnable(lines.read(stepCol), step).asTypeOf(Vec(bufferedRows, UInt(16.W)))
 
   when(s1Advance) { s1Valid := false.B }
   when(step) {
@@ -116,7 +118,7 @@ class Descriptor(p: ElasParams) extends Module {
   }
   val newPixel = Cat(s1Left, s1Right)
   when(s1Advance) {
-    lines.write(s1Col, VecInit(newPixel +: pastRows.take(bufferedRows - 1)))
+    lines.write(s1Col, VecInit(newPixel +: pastRows.take(bufferedRows - 1)).asUInt)
   }
 
   /** Pixel column of one view, oldest row first: index 0 = row y-2m, index 2m = row y. */
@@ -237,6 +239,6 @@ object Descriptor {
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Descriptor", "lines", p.maxWidth, bufferedRows(p) * 16,
-      s"${bufferedRows(p)} pixel rows x {left, right} 8 bit, SyncReadMem 1R1W")
+      s"${bufferedRows(p)} pixel rows x {left, right} 8 bit, 1R1W, in bit slices one block deep")
   )
 }
