@@ -84,8 +84,8 @@ object PostProcess {
     val g = columnWindow(p)
     PostProcessSpeckle.memorySummary(p) ++ Seq(
       MemoryUse("PostRows", "rows", 2 * w, p.signedDispBits, "2 row slots; read-first Mem (block RAM)"),
-      MemoryUse("PostRows", "runs", 2 * w, p.colBits + p.signedDispBits,
-        "run table (end column, right value), 2 rows; read-first Mem (block RAM)"),
+      MemoryUse("PostRows", "runs", 2 << p.colBits, p.colBits + p.signedDispBits,
+        "run table (end column, right value), 2 rows, addressed {slot, column}; read-first Mem (block RAM)"),
       MemoryUse("PostCols", "rows", (g + 2) * w, 1 + p.rowBits + 1 + 16,
         "(G + 2) row slots: value or fill, marker, end row; read-first Mem (block RAM)"),
       MemoryUse("PostCols", "columns", 2 * w, 1 + p.rowBits + 1 + 16,

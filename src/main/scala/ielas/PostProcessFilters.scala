@@ -225,9 +225,9 @@ object PostFilters {
   * invalid pixels between two valid ones get gapValue; with addCorners the row's first / last valid value is
   * copied outwards over up to ipolGapWidth pixels. One row of look-ahead (the run's right end): a run table, keyed
   * by the run's first column, holds (end column, right value) written when the run ends.
-  * Buffers: 2 slots x maxWidth x (dispBits + 1) + 2 x maxWidth x (colBits + dispBits + 1) run table, all block RAM
-  * (SyncReadMem) read one cycle ahead. The run table is read at the column after the last valid pixel before the
-  * output's next pixel; no write can meet that read: the output reads a complete row, the input writes the next one.
+  * Buffers: 2 slots x maxWidth x (dispBits + 1) + 2 x 2^colBits x (colBits + dispBits + 1) run table, all block RAM
+  * (read-first). The run table is read as a pixel leaves the ring, at the column after the last valid pixel before
+  * it; no write can meet that read: the output reads a complete row, the input writes the next one.
   */
 class PostRowGaps(p: ElasParams) extends Module {
   private val vW = p.signedDispBits
@@ -238,7 +238,10 @@ class PostRowGaps(p: ElasParams) extends Module {
   private val gap = math.min(p.ipolGapWidth, p.maxWidth)
   val ring = new RowRing(p, vW, 0, 0, io.in, io.in.bits.data.asUInt)
   private val B = ring.B
-  val runEnd = Seq.fill(B)(Mem(p.maxWidth, UInt((p.colBits + vW).W))) // read-first: no read meets a write (below)
+  // One memory for both slots, addressed {slot, column}: the read address is then two registers and an increment.
+  // Read-first: no read meets a write (below).
+  val runEnd = Mem(B << p.colBits, UInt((p.colBits + vW).W))
+  private def runAddr(slot: UInt, col: UInt): UInt = Cat(slot, col(p.colBits - 1, 0))
   val firstPos = Reg(Vec(B, UInt(p.colBits.W))); val firstVal = Reg(Vec(B, SInt(vW.W)))
   val lastPos = Reg(Vec(B, UInt(p.colBits.W))); val lastVal = Reg(Vec(B, SInt(vW.W)))
   val anyValid = Reg(Vec(B, Bool()))
@@ -249,7 +252,7 @@ class PostRowGaps(p: ElasParams) extends Module {
   val prevAny = !startRow && inAny
   when(io.in.fire && x >= 0.S) {
     when(prevAny && ring.col > inPrev + 1.U) {
-      for ((m, s) <- runEnd.zipWithIndex) when(ring.inSlot === s.U) { m.write(inPrev + 1.U, Cat(ring.col, x.asUInt)) }
+      runEnd.write(runAddr(ring.inSlot, inPrev + 1.U), Cat(ring.col, x.asUInt))
     }
     when(!prevAny) { firstPos(ring.inSlot) := ring.col; firstVal(ring.inSlot) := x }
     lastPos(ring.inSlot) := ring.col; lastVal(ring.inSlot) := x
@@ -259,7 +262,8 @@ class PostRowGaps(p: ElasParams) extends Module {
   when(io.in.fire && io.in.bits.eol) { anyValid(ring.inSlot) := prevAny || x >= 0.S }
 
   // output side: the per-pixel recurrence (last valid pixel -> run table read address) in one cycle, then a stall
-  // pipeline of 2 register stages (the pixel's inputs; the fill conditions and gap value) before the output register
+  // pipeline of 3 register stages (the pixel's inputs and its run table read; the fills without the entry and the
+  // entry again; the run's fill) before the output register
   val o = new PostFilters.OutReg(16, io.out)
   val adv = o.canLoad
   val u = ring.outCol
@@ -267,10 +271,11 @@ class PostRowGaps(p: ElasParams) extends Module {
   val c = ring.centre.asSInt
   val outAny = Reg(Bool()); val outPrevPos = Reg(UInt(p.colBits.W)); val outPrevVal = Reg(SInt(vW.W))
   val pAny = u =/= 0.U && outAny
-  // The run table entry an invalid pixel needs is at the column after the last valid pixel before it. Read one cycle
-  // ahead for the pixel after this one as if this one is taken (the address does not wait for the handshake): if this
-  // pixel is valid, at u + 1; else at the same column as for this pixel, which is also right while it waits.
-  val entry = VecInit(runEnd.map(m => RegNext(m.read(Mux(c >= 0.S, u + 1.U, outPrevPos + 1.U)))))(s)
+  // The run table entry an invalid pixel needs is at the column after the last valid pixel before it: outPrevPos + 1,
+  // read as the pixel leaves the ring, into stage 1 (the read register loads with stage 1), and registered again in
+  // stage 2 before the arithmetic. Read a cycle ahead for the next pixel, the address waited for this pixel's word
+  // from the ring's block RAM (its sign: valid or not), a block-RAM-to-block-RAM path (95 MHz at kitti on the ECP5).
+  val entry1 = RegEnable(runEnd.read(runAddr(s, outPrevPos + 1.U)), adv)
   def x16(d: SInt): SInt = (d << 4).asSInt
   val go = ring.rowReady && adv
   when(go) {
@@ -283,33 +288,39 @@ class PostRowGaps(p: ElasParams) extends Module {
   val v1 = RegEnable(go, false.B, adv)
   val c1 = st(c); val u1 = st(u); val pAny1 = st(pAny); val any1 = st(anyValid(s))
   val firstPos1 = st(firstPos(s)); val firstVal1 = st(firstVal(s)); val lastPos1 = st(lastPos(s)); val lastVal1 = st(lastVal(s))
-  val prevPos1 = st(outPrevPos); val prevVal1 = st(outPrevVal); val entry1 = st(entry)
+  val prevPos1 = st(outPrevPos); val prevVal1 = st(outPrevVal)
   val sof1 = st(ring.v === 0.U && u === 0.U); val eol1 = st(last); val isLast1 = st(ring.isLast); val w1 = st(ring.width)
-  val endCol = entry1(p.colBits + vW - 1, vW)
-  val endVal = entry1(vW - 1, 0).asSInt
-  // 2: which fill applies, and its value
+  // 2: the fills that need no run table entry, and the entry registered out of its block RAM
   val v2 = RegEnable(v1, false.B, adv)
   val c2 = st(c1); val any2 = st(any1); val pAny2 = st(pAny1)
   val after2 = st(u1 > lastPos1)
   val firstOk2 = st(firstPos1 - u1 <= gap.U); val lastOk2 = st(u1 - lastPos1 <= gap.U)
-  val runOk2 = st(endCol - prevPos1 - 1.U <= gap.U)
   val firstFill2 = st(x16(firstVal1)); val lastFill2 = st(x16(lastVal1))
-  val gapFill2 = st(PostFilters.gapValue(x16(prevVal1), x16(endVal)))
+  val prevPos2 = st(prevPos1); val prevVal2 = st(prevVal1); val entry2 = st(entry1)
   val sof2 = st(sof1); val eol2 = st(eol1); val isLast2 = st(isLast1); val w2 = st(w1)
+  val endCol = entry2(p.colBits + vW - 1, vW)
+  val endVal = entry2(vW - 1, 0).asSInt
+  // 3: the run's fill, and which fill applies
+  val v3 = RegEnable(v2, false.B, adv)
+  val c3 = st(c2); val any3 = st(any2); val pAny3 = st(pAny2); val after3 = st(after2)
+  val firstOk3 = st(firstOk2); val lastOk3 = st(lastOk2); val firstFill3 = st(firstFill2); val lastFill3 = st(lastFill2)
+  val runOk3 = st(endCol - prevPos2 - 1.U <= gap.U)
+  val gapFill3 = st(PostFilters.gapValue(x16(prevVal2), x16(endVal)))
+  val sof3 = st(sof2); val eol3 = st(eol2); val isLast3 = st(isLast2); val w3 = st(w2)
   val fill = Wire(SInt(16.W))
   fill := -1.S
-  when(!any2) { fill := -1.S }
-    .elsewhen(!pAny2) {
-      if (p.addCorners) when(firstOk2) { fill := firstFill2 }
+  when(!any3) { fill := -1.S }
+    .elsewhen(!pAny3) {
+      if (p.addCorners) when(firstOk3) { fill := firstFill3 }
     }
-    .elsewhen(after2) {
-      if (p.addCorners) when(lastOk2) { fill := lastFill2 }
+    .elsewhen(after3) {
+      if (p.addCorners) when(lastOk3) { fill := lastFill3 }
     }
     .otherwise {
-      when(runOk2) { fill := gapFill2 }
+      when(runOk3) { fill := gapFill3 }
     }
-  val value = Mux(c2 >= 0.S, x16(c2), fill)
-  when(adv && v2) { o.load(value, sof2, eol2, eol2 && isLast2, isLast2, w2) }
+  val value = Mux(c3 >= 0.S, x16(c3), fill)
+  when(adv && v3) { o.load(value, sof3, eol3, eol3 && isLast3, isLast3, w3) }
 }
 
 /** Post step 2b: the column gap pass over a G-row window, G = min(ipolGapWidth, ipolColumnWindow)
