@@ -105,7 +105,7 @@ class Descriptor(p: ElasParams) extends Module {
   // the column s1 writes in its cycle (it reads the next one), so no transparency is needed. The word is stored as
   // bit slices one block deep (`SlicedMem`): at kitti 1242 x 96 bits would otherwise be blocks stacked in depth, and
   // their multiplexer would sit between the read register and the Sobel sums.
-  val lines = new SlicedMem(p.maxWidth, bufferedRows * 16, syncRead = false, "lines")
+  val lines = new SlicedMem(p.maxWidth, bufferedRows * 16, "lines")
   val pastRows = RegEnable(lines.read(stepCol), step).asTypeOf(Vec(bufferedRows, UInt(16.W)))
 
   when(s1Advance) { s1Valid := false.B }
