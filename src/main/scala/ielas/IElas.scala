@@ -198,7 +198,7 @@ object IElas {
     * a margin of 4 rows: the stages' pipeline registers and the early path's tail at a frame's end (the support
     * filter's node takes one cycle more since its pipelining: about one row at mb-tsukuba, 151 523 cycles against
     * 151 144 with the former margin of 2 rows). The slack: 1000 cycles of pipeline fill and drain, plus a clock per
-    * row of margin (the three clocks per row the speckle labeller takes beyond W are in its latencyRows).
+    * row of margin (the clocks per row the speckle labeller takes beyond W are in its latencyRows).
     */
   def latencyRows(p: ElasParams): Int = bandRows(p) + Descriptor.latencyRows(p) + 1 + PostProcess.latencyRows(p) + 4
   def cycleSlack(p: ElasParams): Int = 1000 + p.maxHeight

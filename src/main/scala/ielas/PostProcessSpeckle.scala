@@ -52,14 +52,15 @@ import chisel3.util._
   *  A row's first pixel is taken once the previous row's last pixel has left A0 (its AK reads of S_{k-1} then see
   *  A2's last writes), its second pixel a clock after B1 works on row k - 1 or is past it (so from the second pixel
   *  on, K_{k-1} of the up node is written by the pixel's A0: node ids are at most the column and B does one per
-  *  clock). B and C start a row while its last pixel is in A2, so a row takes W + 3 clocks when the engines keep up
-  *  (W before the pipeline). B works in two steps (B1: P_k[x] is there, K_k[P_k[x]] is read; B2: K_k[x] is written),
+  *  clock). C starts a row while its last pixel is in A2, B a clock later, so a row takes W + 4 clocks when the
+  *  engines keep up (W before the pipeline). B works in three steps (B0: P_k[x] is read and registered; B1: K_k[P_k[x]]
+  *  is read; B2: K_k[x] is written),
   *  C in five (the class, its entry, the entry registered, a register per map, then the map write, two clocks after
   *  the row's end).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus 3 L + 4 clocks of chain and A's steps; at W + 3 clocks a row that is within L + 2 rows of W
-  * for W >= 4 L + 10, and the 3 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
-  * ceil(3 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
+  * about W nodes), plus 3 L + 4 clocks of chain and A's steps; at W + 4 clocks a row that is within L + 2 rows of W
+  * for W >= 4 L + 10, and the 4 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
+  * ceil(4 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
   * Memories: every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
   * row and column, A's pixel count, B's node), at the address a pipeline step forms for the next step, or (D's ring)
   * from a lane's address register, the beat waiting a clock for its word. A read sees the writes of its own cycle: the row
@@ -360,8 +361,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // each pixel; aNext counts rows that have left A2 (what B, C and D wait for).
   // Row boundary: T takes row k's first pixel once row k - 1's last has left A0 (so that pixel's A1 reads of S_{k-1}
   // follow A2's last writes of row k - 1), and its second pixel a clock after B works on row k - 1 (or is past it).
-  // B and C start row k - 1 in the cycle its last pixel is in A2 (their reads of what A2 writes come a cycle later).
-  // So a row costs W + 3 clocks when the engines keep up.
+  // C starts row k - 1 in the cycle its last pixel is in A2 (its reads of what A2 writes come a cycle later), B a
+  // clock later (`bStart`). So a row costs W + 4 clocks when the engines keep up.
   val inFrame = RegInit(false.B) // rows of a frame remain to be taken
   val needVirtual = RegInit(false.B) // the frame's last row is taken; the virtual row comes next
   val frameW = Reg(UInt(p.colBits.W)); val frameH = Reg(UInt(p.rowBits.W))
@@ -414,10 +415,14 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // B (declared here: A0 reads K_{k-1} while B writes it)
   val bx = RegInit(0.U((idW + 1).W)) // B's node; 0 whenever B is idle
+  val bStart = RegInit(false.B) // B1 holds node 0 of row bNext now (B may start: decided a clock ago)
   val bxN = WireDefault(bx); bx := bxN
   // row bNext is labelled (aNext >= bNext + 1, or its last pixel is in A2), cNext + 1 >= bNext
-  val bCanStart = !bBusy && (dAB.is(_ >= _, 1) || dAB.is(_ === _, 0) && aLastInA2) && dCB.is(_ >= _, -1)
-  val bActive = bBusy || bCanStart
+  // B starts a row a clock after it may (`bStart`, a register): P is read two clocks before B1 holds a node, and the
+  // read address (node 1 while idle, bx + 2 while active) then depends on registers only
+  val bCanStart = !bBusy && !bStart && (dAB.is(_ >= _, 1) || dAB.is(_ === _, 0) && aLastInA2) && dCB.is(_ >= _, -1)
+  bStart := bCanStart
+  val bActive = bBusy || bStart
   val bComputed = Wire(UInt(idW.W)) // B2's K entry of this cycle
   val b1v = Wire(Bool()) // B1 holds a node of its row (B2 writes it next cycle)
   val b2v = RegInit(false.B) // B2 computes and writes K_k[b2x] now
@@ -639,21 +644,22 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   }
 
   // ===== B: flatten P_k into K_k (one node per clock, from the cycle it may start) =====
-  // K_k[0] = 0 (node 0 never merges: P_k[0] = 0), so B does not read P_k[0]; it may start while the row's last pixel
-  // is in A2, whose P write is forwarded to the read of node 1 a cycle later.
+  // K_k[0] = 0 (node 0 never merges: P_k[0] = 0), so B does not read P_k[0]; it starts a clock after the row's last
+  // pixel was in A2, whose P write is forwarded to the read of node 1 (issued in that clock).
   val bKslot = b3.cur
   val bN = bD.regRead2(metaN)
+  // B0: P is read for the node B1 holds two clocks later (bx + 2 while active, node 1 of its slot while idle: a
+  // start holds node 0, which needs no P), the word arrives, and P_k[x] is registered for B1 (`bPx`), so K's read
+  // address starts at a flip-flop, not at P's block-RAM word. A row's P writes are all asked for by the clock A2
+  // holds its last pixel, the clock before B can start it (`bStart`), so a read misses at most the writes that land in
+  // its own clock and the next one; they are compared with the read's address (registers) as the word arrives.
   val bPx = {
-    // the node B1 holds next cycle: bx + 1 while busy (after a row's last node, nothing), node 1 of its slot while
-    // idle (the node after the one a start does), so the address does not wait for the start decision
-    val nextNode = Mux(bBusy, bx(idW - 1, 0) + 1.U, 1.U)
-    val next = addr(b2.cur, nextNode)
-    // forwarded: the request of this cycle and the one being written (neither is in the word read). The request's
-    // address is compared by parts (its slot and either candidate node), so A2's decision only selects.
-    val pushIsNext = Mux(q.newRun, q.node === nextNode, top === nextNode)
-    val hit1 = RegNext(pWen && aP === b2.cur && pushIsNext, false.B)
-    val hit2 = RegNext(pwEn && pwSlot === b2.cur && pwNode === nextNode, false.B)
-    Mux(hit1, pwData, Mux(hit2, RegNext(pwData), RegNext(pMem.read(next))))
+    val node = Mux(bActive, bx(idW - 1, 0) + 2.U, 1.U)
+    val word = RegNext(pMem.read(addr(b2.cur, node)))
+    val hitA = RegNext(pwEn && pwSlot === b2.cur && pwNode === node, false.B)
+    val dataA = RegNext(pwData)
+    val hitB = pwEn && pwSlot === RegNext(b2.cur) && pwNode === RegNext(node)
+    RegNext(Mux(hitB, pwData, Mux(hitA, dataA, word)))
   }
   // B1 (node bx): P_k[bx] is here; K_k[P_k[bx]] is read. B2 (node b2x, a cycle later) computes and writes K_k[b2x];
   // P_k[x] < x, so the read sees B2's write of node x - 1 made in the same cycle.
@@ -922,9 +928,12 @@ object PostProcessSpeckle {
   def outEntries(p: ElasParams): Int = 3 * p.speckleWindowRows + 8
   def idBits(p: ElasParams): Int = log2Ceil(p.maxWidth)
   def sizeBits(p: ElasParams): Int = log2Ceil(p.speckleSize + 1) max 1
-  /** Rows of latency (input row -> output row): L + 2 rows of W, plus the 3 clocks per row the engines take beyond
-    * W, which add up to 3 maxHeight clocks over a frame taken at full rate. */
-  def latencyRows(p: ElasParams): Int = p.speckleWindowRows + 2 + (3 * p.maxHeight + p.maxWidth - 1) / p.maxWidth
+  /** Clocks a row takes beyond W when the engines keep up (T waits for A's pipeline and for B, see the class). */
+  val rowExtraClocks = 4
+  /** Rows of latency (input row -> output row): L + 2 rows of W, plus the clocks per row the engines take beyond W,
+    * which add up to rowExtraClocks x maxHeight clocks over a frame taken at full rate. */
+  def latencyRows(p: ElasParams): Int =
+    p.speckleWindowRows + 2 + (rowExtraClocks * p.maxHeight + p.maxWidth - 1) / p.maxWidth
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = {
     val (w, idW, sW) = (p.maxWidth, idBits(p), sizeBits(p))
