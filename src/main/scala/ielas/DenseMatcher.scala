@@ -399,7 +399,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   val loadA = WireDefault(false.B) // gen enters stage A this cycle
   val genActive = RegInit(false.B)
   // gen's cell-row facts, a register behind gen: its cell row changes only at a row end, and the next row end that
-  // reads them is a row (>= 2 pixels) later; lastCellRow and lastRowH settle within 4 cycles of sof, long before
+  // reads them is a row (>= 2 pixels) later; lastCellRow and lastRowH settle within 5 cycles of sof, long before
   // gen's first row end (the primer lag is D steps).
   val genBelow = RegNext(gen.cr < lastCellRow)
   val genHCur = RegNext(Mux(gen.cr === lastCellRow, lastRowH, step.U))
@@ -454,12 +454,19 @@ class DenseMatcher(p: ElasParams) extends Module {
   aValid := aValidNext
   val aFlow = new Flow(aValid, aValidNext)
   val aFire = aFlow.moves // stage A's pixel moves on this cycle (upAdv && aValid, a register)
-  // The last cell column and row follow from the frame size registered at sof, a cycle later (the divisions stay off
-  // the handshake paths); the primer issues its first cell two cycles after sof at the earliest.
-  when(RegNext(slot && slotSof, false.B)) {
-    lastCell := DenseMatcher.divConst(width - 2.U, step, colW)
-    lastCellRow := DenseMatcher.divConst(height - 2.U, step, rowW)
+  // The last cell column and row follow from the frame size registered at sof, in two more register steps (the size
+  // minus 2, then its product by the reciprocal): the divisions stay off the handshake paths, and each multiplier
+  // starts and ends at flip-flops. The primer starts once they are there (`sizeReady`, three cycles after sof).
+  val sizeStep1 = RegNext(slot && slotSof, false.B)
+  val sizeStep2 = RegNext(sizeStep1, false.B)
+  val widthM2 = RegEnable(width - 2.U, sizeStep1)
+  val heightM2 = RegEnable(height - 2.U, sizeStep1)
+  when(sizeStep2) {
+    lastCell := DenseMatcher.divConst(widthM2, step, colW)
+    lastCellRow := DenseMatcher.divConst(heightM2, step, rowW)
   }
+  val sizeReady = RegInit(false.B)
+  when(slot && slotSof) { sizeReady := false.B }.elsewhen(sizeStep2) { sizeReady := true.B }
 
   // ---------------------------------------------------------------- primer: the next row's first K-1 cells
   val pRow = Reg(new Pos) // only v, cr, vIn, fp are used
@@ -469,7 +476,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   val pWaitFrame = RegInit(true.B)
   val pActive = RegInit(false.B)
   val pIssued = RegInit(false.B) // all K-1 cells of the next row issued; cleared with the last write
-  when(pWaitFrame && sofPending && !shadowFull && !pIssued) {
+  when(pWaitFrame && sofPending && sizeReady && !shadowFull && !pIssued) {
     pWaitFrame := false.B
     pActive := true.B
     sofPending := false.B
@@ -1097,10 +1104,11 @@ object DenseMatcher {
   def planeBits(p: ElasParams): Int = 2 * (3 * 32 + p.colBits + 1 + p.rowBits + 1)
   def gridCellBits(p: ElasParams): Int = 2 * p.storedDisparities * p.signedDispBits
   /** Cycles a frame costs beyond its pixels: the flush, the three pipeline registers, and the first row's planes
-    * and primer (K - 1 cells and its register step) when they have not arrived during the first dispMax steps.
+    * and primer (K - 1 cells and its register step, after the frame size's two register steps) when they have not
+    * arrived during the first dispMax steps.
     */
   def cycleSlack(p: ElasParams): Int =
-    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 6 + ownerStages + planeStages + 2 + treeRegisters(p)
+    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 6 + ownerStages + planeStages + 4 + treeRegisters(p)
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
