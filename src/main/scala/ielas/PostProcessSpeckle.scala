@@ -37,30 +37,33 @@ import chisel3.util._
   *   R valid flags 2 x W bits (registers; each lookup reads its index from 16 copies, one per run of flags)
   *   row above    2^(colBits + 1) x (dispBits + 1 + idW) (A's last pixels again, >= 2 rows)
   *   output queue 3 L + 8 x (dispBits + 1 + 4 + colBits) (D's chain never stalls; D issues with a credit)
-  * A is a pipeline of five steps, so that no step follows a chain of lookups (each about 6 LUT levels):
+  * A is a pipeline of eight steps, so that no step follows a chain of lookups (each about 6 LUT levels) and no table's
+  * block-RAM word is the next table's read address in the same clock (each such link has a register step):
   *  - T takes the input beat into registers and decides whether it joins the left pixel's run; ready depends on
   *    registers only, not on the beat.
   *  - A0: the run's node id and node count (a recurrence on the input alone), the delay line
-  *    and row-above writes, the up pixel's connection; K_{k-1}[up node] is read.
-  *  - AK: the flat class cls = K_{k-1}[up node] (0 for node 0, B2's result when B2 computes that node this cycle);
-  *    R_k[cls] and S_{k-1}[cls] are read.
-  *  - A1: R_k[cls] (the word read, or the node A2 writes there now), the touched flag, the comparisons A2's decision
+  *    and row-above writes; the up node (the row above's word) is registered.
+  *  - AK0: K_{k-1}[up node] is read.
+  *  - AK: the flat class cls = K_{k-1}[up node] (0 for node 0), registered; the up pixel's connection.
+  *  - AR: R_k[cls] and S_{k-1}[cls] are read.
+  *  - A1R: both words are registered.
+  *  - A1: R_k[cls] (the word, or the node A2 wrote there a clock ago), the touched flag, the comparisons A2's decision
   *    needs; S_k of that node is read (the read includes A2's write-back of this cycle).
   *  - A2: the label state (top node, its size) and the writes of R_k, P_k, S_k; the touched flag is written a clock
   *    later, from registers. A2 forwards its own flag write of the cycle in which A1 read (the same class touched
   *    first by the previous pixel), A1 the write then in flight (the pixel before), and C1 the same.
-  *  A row's first pixel is taken once the previous row's last pixel has left A0 (its AK reads of S_{k-1} then see
-  *  A2's last writes), its second pixel a clock after B1 works on row k - 1 or is past it (so from the second pixel
-  *  on, K_{k-1} of the up node is written by the pixel's A0: node ids are at most the column and B does one per
-  *  clock). C starts a row while its last pixel is in A2, B a clock later, so a row takes W + 4 clocks when the
-  *  engines keep up (W before the pipeline). B works in three steps (B0: P_k[x] is read and registered; B1: K_k[P_k[x]]
+  *  A row's first pixel is taken once the previous row's last pixel has left AK0 (its AR reads of S_{k-1} then see
+  *  A2's last writes), its second pixel once B1 works on row k - 1 or is past it (so from the second pixel on,
+  *  K_{k-1} of the up node is written by the pixel's AK0: node ids are at most the column and B does one per clock).
+  *  C starts a row while its last pixel is in A2, B a clock later, so a row takes W + 6 clocks when the engines keep
+  *  up (W before the pipeline). B works in three steps (B0: P_k[x] is read and registered; B1: K_k[P_k[x]]
   *  is read; B2: K_k[x] is written),
   *  C in five (the class, its entry, the entry registered, a register per map, then the map write, two clocks after
   *  the row's end).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus 3 L + 4 clocks of chain and A's steps; at W + 4 clocks a row that is within L + 2 rows of W
-  * for W >= 4 L + 10, and the 4 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
-  * ceil(4 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
+  * about W nodes), plus 3 L + 4 clocks of chain and A's steps; at W + 6 clocks a row that is within L + 2 rows of W
+  * for W >= 4 L + 10, and the 6 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
+  * ceil(6 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
   * Memories: every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
   * row and column, A's pixel count, B's node), at the address a pipeline step forms for the next step, or (D's ring)
   * from a lane's address register, the beat waiting a clock for its word. A read sees the writes of its own cycle: the row
@@ -249,6 +252,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // registers (see A2): the 2 x W flags' enables then start at flip-flops. `touchLate*` is the write in flight.
   val rowClear = WireDefault(false.B); val virtualClear = WireDefault(false.B)
   val touchLate = RegInit(false.B); val touchLateSlot = Reg(UInt(1.W)); val touchLateCls = Reg(UInt(idW.W))
+  val touchLateTop = Reg(UInt(idW.W)) // the R write in flight: its data (the pushed top)
   /** The touched flag of a class in two steps, for a register between them (a W:1 multiplexer is too deep and too
     * wide for one step): `groups` looks it up in each group of 2^lo classes (at most 2^hiBits groups), `pick` takes
     * the group. The first step takes the buffer and the index's low bits from `copies` registers, loaded a clock
@@ -353,16 +357,17 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dAN = diff(aIncW, dNextIncW).r // aNext - dNext
   val dCN = diff(cIncW, dNextIncW).r // cNext - dNext
 
-  // ===== A: labelling, a pipeline T -> A0 -> A1 -> A2 (one pixel per clock) =====
+  // ===== A: labelling, a pipeline T -> A0 -> AK0 -> AK -> AR -> A1R -> A1 -> A2 (one pixel per clock) =====
   // T takes the input beat into registers (no logic on its bits) and does the row's start bookkeeping; A0 finds the
-  // pixel's run (left connection, node id), writes the delay line and the row above, and forms the up pixel's flat
-  // class; A1 reads that class's row-k entries (touched flag, node, sizes); A2 updates the label state (top node and
-  // its size) and writes R, P, S. Only A2 is a recurrence. A's row slots advance when T ends a row and travel with
-  // each pixel; aNext counts rows that have left A2 (what B, C and D wait for).
-  // Row boundary: T takes row k's first pixel once row k - 1's last has left A0 (so that pixel's A1 reads of S_{k-1}
-  // follow A2's last writes of row k - 1), and its second pixel a clock after B works on row k - 1 (or is past it).
+  // pixel's run (left connection, node id) and writes the delay line and the row above; AK0 and AK look up the up
+  // pixel's flat class; AR and A1R read that class's row-k entries (node, sizes), A1 its touched flag and S_k of its
+  // node; A2 updates the label state (top node and its size) and writes R, P, S. Only A2 is a recurrence. A's row
+  // slots advance when T ends a row and travel with each pixel; aNext counts rows that have left A2 (what B, C and D
+  // wait for).
+  // Row boundary: T takes row k's first pixel once row k - 1's last has left AK0 (so that pixel's AR reads of
+  // S_{k-1} follow A2's last writes of row k - 1), and its second pixel once B works on row k - 1 (or is past it).
   // C starts row k - 1 in the cycle its last pixel is in A2 (its reads of what A2 writes come a cycle later), B a
-  // clock later (`bStart`). So a row costs W + 4 clocks when the engines keep up.
+  // clock later (`bStart`). So a row costs W + 6 clocks when the engines keep up.
   val inFrame = RegInit(false.B) // rows of a frame remain to be taken
   val needVirtual = RegInit(false.B) // the frame's last row is taken; the virtual row comes next
   val frameW = Reg(UInt(p.colBits.W)); val frameH = Reg(UInt(p.rowBits.W))
@@ -406,7 +411,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val clsLo = UInt((1 << clsLoBits).W); val clsHi = UInt((1 << (idW - clsLoBits)).W)
   }
   val inA0v = RegInit(false.B); val inA0 = Reg(new A0Beat)
+  val inAK0v = RegInit(false.B); val inAK0 = Reg(new AKBeat)
   val inAKv = RegInit(false.B); val inAK = Reg(new AKBeat)
+  val inARv = RegInit(false.B); val inAR = Reg(new A1Beat)
+  val inA1Rv = RegInit(false.B); val inA1R = Reg(new A1Beat)
   val inA1v = RegInit(false.B); val inA1 = Reg(new A1Beat)
   // A2's beat with a reset: its flip-flops then never become the tail of a shift register (an SRL read is a LUT level)
   val inA2v = RegInit(false.B); val inA2 = RegInit(0.U.asTypeOf(new A2Beat))
@@ -430,12 +438,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // ---- T ----
   // row k = tNext: bNext >= k - 1, cNext + 1 >= k (or C writes its last entry of row k - 2 now), dDone + ND >= k + 1
-  val rowOk = !aBusy && !inA0v && dBT.is(_ >= _, -1) && (dCT.is(_ >= _, -1) || dCT.is(_ === _, -2) && c2Last) &&
+  val rowOk = !aBusy && !inA0v && !inAK0v && dBT.is(_ >= _, -1) && (dCT.is(_ >= _, -1) || dCT.is(_ === _, -2) && c2Last) &&
     dDT.is(_ >= _, 1 - ND)
-  // B works on row k - 1 or is past it (the second pixel of a row needs K_{k-1}, see AK); `bOnRowLate`: it did so a
-  // clock ago (T's row stays the same from the row's first pixel on, and B only moves on)
+  // B works on row k - 1 or is past it (the second pixel of a row needs K_{k-1}, see AK0). `bOnRowReg` is the same
+  // as a register, from B's start decision a clock ahead (T's row stays the same from the row's first pixel on, and
+  // B only moves on), so T's ready reads a flip-flop
   val bOnRow = dBT.is(_ >= _, 0) || dBT.is(_ === _, -1) && bActive
-  val bOnRowLate = RegNext(bOnRow, false.B)
+  val bOnRowReg = RegNext(dBT.is(_ >= _, 0) || dBT.is(_ === _, -1) && (bActive || bCanStart), false.B)
   val rowStartNow = !aBusy
   val col = Mux(aBusy, aCol, 0.U)
   // col === frameW - 1 and aRow === frameH - 1 as registers, set at the take a cycle before (compares with frameW - 2
@@ -448,7 +457,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val upPos = RegInit(0.U((p.colBits + 1).W)) // pixels taken, mod 2^(colBits + 1) >= 2 maxWidth
   val upWord = upRows.read(upPos - frameW)
   val aColIsOne = RegInit(false.B) // aCol === 1 (T waits for the row's second pixel), as a register
-  io.in.ready := inFrame && Mux(aBusy, !aColIsOne || bOnRowLate, rowOk)
+  io.in.ready := inFrame && Mux(aBusy, !aColIsOne || bOnRowReg, rowOk)
   val take = io.in.fire
   when(take) { aColIsOne := rowStartNow }
 
@@ -479,7 +488,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // The virtual row after a frame: no pixels, no nodes, no touches (closes every class of the last row). It starts
   // with A empty and counts as labelled two cycles later (after its meta writes land, for B's and D's registered copies).
   // Its condition is taken a cycle old: once true it stays true while the frame's last row drains (no pixel comes).
-  val virtualStart = needVirtual && RegNext(rowOk && bOnRow && !inAKv && !inA1v && !inA2v, false.B)
+  val virtualStart = needVirtual && RegNext(rowOk && bOnRow && !inAKv && !inARv && !inA1Rv && !inA1v && !inA2v, false.B)
   when(virtualStart) {
     needVirtual := false.B
     virtualClear := true.B
@@ -500,8 +509,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val thisRun = Mux(newRun, nodeNow, runId)
   val upVal = upWord(vW + idW - 1, idW).asSInt
   val upId = upWord(idW - 1, 0)
-  // K_{k-1}[upId] is read now and used in AK (below)
-  val kWordA = kTab.read(0, inA0.sl.sPrev, upId)
   // the row's start bookkeeping (a cycle after T; A1 reads R_k's flags a cycle later)
   when(inA0v && inA0.rowStart) {
     val d = inA0.sl.d
@@ -518,34 +525,53 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     upRows.write(inA0.pos, Cat(inA0.v.asUInt, thisRun))
     when(inA0.lastCol) { metaN(inA0.sl.d) := cntBase + newRun.asUInt }
   }
-  inAKv := inA0v
-  inAK.sl := inA0.sl
-  inAK.rowStart := inA0.rowStart; inAK.lastCol := inA0.lastCol; inAK.valid := a0Valid; inAK.newRun := newRun
-  inAK.node := nodeNow; inAK.upId := upId
-  inAK.upOk := a0Valid && inA0.hasUp; inAK.v := inA0.v; inAK.upVal := upVal
+  inAK0v := inA0v
+  inAK0.sl := inA0.sl
+  inAK0.rowStart := inA0.rowStart; inAK0.lastCol := inA0.lastCol; inAK0.valid := a0Valid; inAK0.newRun := newRun
+  inAK0.node := nodeNow; inAK0.upId := upId
+  inAK0.upOk := a0Valid && inA0.hasUp; inAK0.v := inA0.v; inAK0.upVal := upVal
 
-  // ---- AK: the flat class cls = K_{k-1}[up node]; R_k[cls] and S_{k-1}[cls] are read ----
+  // ---- AK0: K_{k-1}[up node] is read (the up node from a register, not from the row above's block-RAM word) ----
+  val kWordA = kTab.read(0, inAK0.sl.sPrev, inAK0.upId)
+  inAKv := inAK0v
+  inAK := inAK0
+
+  // ---- AK: the flat class cls = K_{k-1}[up node], registered for AR ----
   // K_{k-1}[upId] is final: an up node id is at most the column, node 0 is always its own class, and from the second
-  // pixel on B works on row k - 1 (one node per clock, never stalling; T took the second pixel at least a clock after
-  // B1's first cycle on the row) or is past it: B2 wrote node upId no later than this pixel's A0, so the word read
-  // there holds it (a write of that same cycle is forwarded by the table). The class thus comes from one block-RAM
-  // word, not also from B2's result (that bypass was the stage's critical path: B's K word -> A's class -> the R and
-  // S read addresses). While a pixel of row k is in AK, B cannot have started row k.
-  val clsZero = RegNext(upId === 0.U)
+  // pixel on B works on row k - 1 (one node per clock, never stalling; T took the second pixel no earlier than B1's
+  // first cycle on the row) or is past it: B2 wrote node upId no later than this pixel's AK0, so the word read there
+  // holds it (a write of that same cycle is forwarded by the table). The class thus comes from one block-RAM word,
+  // not also from B2's result. While a pixel of row k is in AK, B cannot have started row k.
+  val clsZero = RegNext(inAK0.upId === 0.U)
   val cls = Mux(clsZero, 0.U, kWordA)
   // (B2 never computes the up node while the pixel is in AK: checked against B1 a cycle earlier, for the pixels
   // that use the class; an invalid up pixel carries the last run's id, not a node at most its column)
-  val bComputesUp = RegNext(b1v && b3.cur === inA0.sl.sPrev && bx === upId, false.B)
+  val bComputesUp = RegNext(b1v && b3.cur === inAK0.sl.sPrev && bx === inAK0.upId, false.B)
   assert(!(inAKv && inAK.upOk && inAK.upVal >= 0.S && !clsZero && bComputesUp),
-    "speckle: the up node's class is written after A0 read it")
-  val rWordA = rTab.read(0, inAK.sl.r, cls)
-  val sPrevWord = sTab.read(0, inAK.sl.sPrev, cls)
-  inA1v := inAKv
-  inA1.sl := inAK.sl
-  inA1.rowStart := inAK.rowStart; inA1.lastCol := inAK.lastCol; inA1.valid := inAK.valid; inA1.newRun := inAK.newRun
-  inA1.node := inAK.node; inA1.cls := cls
-  inA1.connectU := inAK.upOk && inAK.upVal >= 0.S && similar(inAK.v, inAK.upVal)
-  val rvACopies = rvA.load(inAK.sl.r, cls) // for A1's flag lookup
+    "speckle: the up node's class is written after AK0 read it")
+  inARv := inAKv
+  inAR.sl := inAK.sl
+  inAR.rowStart := inAK.rowStart; inAR.lastCol := inAK.lastCol; inAR.valid := inAK.valid; inAR.newRun := inAK.newRun
+  inAR.node := inAK.node; inAR.cls := cls
+  inAR.connectU := inAK.upOk && inAK.upVal >= 0.S && similar(inAK.v, inAK.upVal)
+
+  // ---- AR: R_k[cls] and S_{k-1}[cls] are read (the class from a register, not from K's block-RAM word) ----
+  val rWordA = rTab.read(0, inAR.sl.r, inAR.cls)
+  val sPrevWord = sTab.read(0, inAR.sl.sPrev, inAR.cls)
+  inA1Rv := inARv
+  inA1R := inAR
+
+  // ---- A1R: the words, registered for A1 ----
+  // R_k[cls] misses A2's R writes of this clock and the next (the two pixels ahead; the write of AR's clock is in
+  // the word). The next clock's is the pixel ahead's, which A2 handles (hitR); this clock's, by the pixel two ahead,
+  // is forwarded in A1 from registers: whether that pixel has this class (compared now, both in registers) and its
+  // pushed top (registered as it is written: `touchLateTop`).
+  val a1RWord = RegNext(rWordA)
+  val a1SPrev = RegNext(finS(inA1R.sl.sPrev, inA1R.cls, sPrevWord))
+  val a1LateEq = RegNext(inA2v && inA2.p.sl.r === inA1R.sl.r && inA2.p.cls === inA1R.cls, false.B)
+  inA1v := inA1Rv
+  inA1 := inA1R
+  val rvACopies = rvA.load(inA1R.sl.r, inA1R.cls) // for A1's flag lookup
 
   // ---- A1: the class's row-k entries ----
   // R_k[cls]: the word read in AK; S_k of that node is read now (and seen by A2: the read includes A2's write-back of
@@ -557,7 +583,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // for a row's first pixel (T takes it once the previous row's last pixel has left A0: that pixel's last S write
   // and finTop come no later than this pixel's AK read).
   val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
-  val rnRaw = rWordA
+  val rnRaw = Mux(a1LateEq && touchLate, touchLateTop, a1RWord)
   val (mHit, mWritten, mRead) = sTab.readParts(1, inA1.sl.s, rnRaw) // S_k[rn]: mWritten if mHit, else mRead
   inA2v := inA1v
   inA2.p := inA1
@@ -566,7 +592,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // does not hold it
   inA2.hitLate := touchLate && touchLateSlot === inA1.sl.r && touchLateCls === inA1.cls
   inA2.rn := rnRaw
-  inA2.sPrev := finS(inA1.sl.sPrev, inA1.cls, sPrevWord)
+  inA2.sPrev := a1SPrev
   // the next top is one of the current top, the node of the pixel in A2 or its rn: compare rn with each now
   inA2.eqT := rnRaw === top; inA2.eqN := rnRaw === inA2.p.node; inA2.eqR := rnRaw === inA2.rn
   inA2.hitPre := inA2v && inA2.p.cls === inA1.cls
@@ -618,7 +644,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // (decided now, so A2's decision drives 2 x 2^(idW - clsLoBits) registers, not 2 x W enables) and the class's
   // one-hot low part. A1 forwards the write in flight (hitLate), C1 too (c2LateHit). A buffer's clear comes a clock
   // late as well, so it keeps its order with the writes: it never meets one of its own buffer (asserted).
-  touchLate := inA2v && touchNew; touchLateSlot := aP; touchLateCls := q.cls
+  touchLate := inA2v && touchNew; touchLateSlot := aP; touchLateCls := q.cls; touchLateTop := pushTop
   val touchLo = RegNext(inA2.clsLo)
   for ((r, b) <- rValid.zipWithIndex) {
     val groupEn = RegNext(VecInit(Seq.tabulate(1 << (idW - clsLoBits))(g =>
@@ -929,7 +955,7 @@ object PostProcessSpeckle {
   def idBits(p: ElasParams): Int = log2Ceil(p.maxWidth)
   def sizeBits(p: ElasParams): Int = log2Ceil(p.speckleSize + 1) max 1
   /** Clocks a row takes beyond W when the engines keep up (T waits for A's pipeline and for B, see the class). */
-  val rowExtraClocks = 4
+  val rowExtraClocks = 6
   /** Rows of latency (input row -> output row): L + 2 rows of W, plus the clocks per row the engines take beyond W,
     * which add up to rowExtraClocks x maxHeight clocks over a frame taken at full rate. */
   def latencyRows(p: ElasParams): Int =
