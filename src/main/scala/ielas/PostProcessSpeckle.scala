@@ -55,15 +55,15 @@ import chisel3.util._
   *  A row's first pixel is taken once the previous row's last pixel has left AK0 (its AR reads of S_{k-1} then see
   *  A2's last writes), its second pixel once B1 works on row k - 1 or is past it (so from the second pixel on,
   *  K_{k-1} of the up node is written by the pixel's AK0: node ids are at most the column and B does one per clock).
-  *  C starts a row while its last pixel is in A2, B a clock later, so a row takes W + 6 clocks when the engines keep
-  *  up (W before the pipeline). B works in three steps (B0: P_k[x] is read and registered; B1: K_k[P_k[x]]
+  *  B and C start a row while its last pixel is in A2, so a row takes W + 5 clocks when the engines keep up (W before
+  *  the pipeline). B works in three steps (B0: P_k[x] is read and registered; B1: K_k[P_k[x]]
   *  is read; B2: K_k[x] is written),
   *  C in five (the class, its entry, the entry registered, a register per map, then the map write, two clocks after
   *  the row's end).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus 3 L + 4 clocks of chain and A's steps; at W + 6 clocks a row that is within L + 2 rows of W
-  * for W >= 4 L + 10, and the 6 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
-  * ceil(6 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
+  * about W nodes), plus 3 L + 4 clocks of chain and A's steps; at W + 5 clocks a row that is within L + 2 rows of W
+  * for W >= 4 L + 10, and the 5 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
+  * ceil(5 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
   * Memories: every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
   * row and column, A's pixel count, B's node), at the address a pipeline step forms for the next step, or (D's ring)
   * from a lane's address register, the beat waiting a clock for its word. A read sees the writes of its own cycle: the row
@@ -366,8 +366,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // wait for).
   // Row boundary: T takes row k's first pixel once row k - 1's last has left AK0 (so that pixel's AR reads of
   // S_{k-1} follow A2's last writes of row k - 1), and its second pixel once B works on row k - 1 (or is past it).
-  // C starts row k - 1 in the cycle its last pixel is in A2 (its reads of what A2 writes come a cycle later), B a
-  // clock later (`bStart`). So a row costs W + 6 clocks when the engines keep up.
+  // B and C start row k - 1 in the cycle its last pixel is in A2 (their reads of what A2 writes come later), and T
+  // takes row k's second pixel in B's first clock on row k - 1. So a row costs W + 5 clocks when the engines keep up.
   val inFrame = RegInit(false.B) // rows of a frame remain to be taken
   val needVirtual = RegInit(false.B) // the frame's last row is taken; the virtual row comes next
   val frameW = Reg(UInt(p.colBits.W)); val frameH = Reg(UInt(p.rowBits.W))
@@ -423,14 +423,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
   // B (declared here: A0 reads K_{k-1} while B writes it)
   val bx = RegInit(0.U((idW + 1).W)) // B's node; 0 whenever B is idle
-  val bStart = RegInit(false.B) // B1 holds node 0 of row bNext now (B may start: decided a clock ago)
   val bxN = WireDefault(bx); bx := bxN
   // row bNext is labelled (aNext >= bNext + 1, or its last pixel is in A2), cNext + 1 >= bNext
-  // B starts a row a clock after it may (`bStart`, a register): P is read two clocks before B1 holds a node, and the
-  // read address (node 1 while idle, bx + 2 while active) then depends on registers only
-  val bCanStart = !bBusy && !bStart && (dAB.is(_ >= _, 1) || dAB.is(_ === _, 0) && aLastInA2) && dCB.is(_ >= _, -1)
-  bStart := bCanStart
-  val bActive = bBusy || bStart
+  val bCanStart = !bBusy && (dAB.is(_ >= _, 1) || dAB.is(_ === _, 0) && aLastInA2) && dCB.is(_ >= _, -1)
+  val bActive = bBusy || bCanStart
   val bComputed = Wire(UInt(idW.W)) // B2's K entry of this cycle
   val b1v = Wire(Bool()) // B1 holds a node of its row (B2 writes it next cycle)
   val b2v = RegInit(false.B) // B2 computes and writes K_k[b2x] now
@@ -440,11 +436,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // row k = tNext: bNext >= k - 1, cNext + 1 >= k (or C writes its last entry of row k - 2 now), dDone + ND >= k + 1
   val rowOk = !aBusy && !inA0v && !inAK0v && dBT.is(_ >= _, -1) && (dCT.is(_ >= _, -1) || dCT.is(_ === _, -2) && c2Last) &&
     dDT.is(_ >= _, 1 - ND)
-  // B works on row k - 1 or is past it (the second pixel of a row needs K_{k-1}, see AK0). `bOnRowReg` is the same
-  // as a register, from B's start decision a clock ahead (T's row stays the same from the row's first pixel on, and
-  // B only moves on), so T's ready reads a flip-flop
+  // B works on row k - 1 or is past it (the second pixel of a row needs K_{k-1}, see AK0): from registers, through
+  // B's start decision
   val bOnRow = dBT.is(_ >= _, 0) || dBT.is(_ === _, -1) && bActive
-  val bOnRowReg = RegNext(dBT.is(_ >= _, 0) || dBT.is(_ === _, -1) && (bActive || bCanStart), false.B)
   val rowStartNow = !aBusy
   val col = Mux(aBusy, aCol, 0.U)
   // col === frameW - 1 and aRow === frameH - 1 as registers, set at the take a cycle before (compares with frameW - 2
@@ -457,7 +451,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val upPos = RegInit(0.U((p.colBits + 1).W)) // pixels taken, mod 2^(colBits + 1) >= 2 maxWidth
   val upWord = upRows.read(upPos - frameW)
   val aColIsOne = RegInit(false.B) // aCol === 1 (T waits for the row's second pixel), as a register
-  io.in.ready := inFrame && Mux(aBusy, !aColIsOne || bOnRowReg, rowOk)
+  io.in.ready := inFrame && Mux(aBusy, !aColIsOne || bOnRow, rowOk)
   val take = io.in.fire
   when(take) { aColIsOne := rowStartNow }
 
@@ -674,36 +668,46 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // pixel was in A2, whose P write is forwarded to the read of node 1 (issued in that clock).
   val bKslot = b3.cur
   val bN = bD.regRead2(metaN)
-  // B0: P is read for the node B1 holds two clocks later (bx + 2 while active, node 1 of its slot while idle: a
-  // start holds node 0, which needs no P), the word arrives, and P_k[x] is registered for B1 (`bPx`), so K's read
-  // address starts at a flip-flop, not at P's block-RAM word. A row's P writes are all asked for by the clock A2
-  // holds its last pixel, the clock before B can start it (`bStart`), so a read misses at most the writes that land in
-  // its own clock and the next one; they are compared with the read's address (registers) as the word arrives.
-  val bPx = {
-    val node = Mux(bActive, bx(idW - 1, 0) + 2.U, 1.U)
-    val word = RegNext(pMem.read(addr(b2.cur, node)))
-    val hitA = RegNext(pwEn && pwSlot === b2.cur && pwNode === node, false.B)
-    val dataA = RegNext(pwData)
-    val hitB = pwEn && pwSlot === RegNext(b2.cur) && pwNode === RegNext(node)
-    RegNext(Mux(hitB, pwData, Mux(hitA, dataA, word)))
-  }
-  // B1 (node bx): P_k[bx] is here; K_k[P_k[bx]] is read. B2 (node b2x, a cycle later) computes and writes K_k[b2x];
-  // P_k[x] < x, so the read sees B2's write of node x - 1 made in the same cycle.
-  val kWordB = kTab.read(1, bKslot, bPx)
-  val b2Px = RegNext(bPx)
-  b1v := bActive && bx < bN
-  b2v := b1v
-  b2x := bx(idW - 1, 0); b2Slot := bKslot
-  // x = 0 and P_k[x] = x decided in B1 (registers into B2's multiplexer)
-  val b2Zero = RegNext(bx === 0.U); val b2Self = RegNext(bPx === bx(idW - 1, 0))
-  bComputed := Mux(b2Zero, 0.U, Mux(b2Self, b2Px, kWordB))
-  when(b2v) { kTab.write(b2Slot, b2x, bComputed) }
+  // B0: P is read for the node B1 holds two clocks later and P_k[x] is registered for B1 (`bPx`), so K's read
+  // address in B1 does not start at P's block-RAM word. The node read: bx + 2 while B goes on, node 1 of the next
+  // slot when B1 holds its row's last node (B may start the next row next clock), node 1 of this slot while idle (a
+  // start holds node 0, which needs no P). The addresses are formed from registers; B's decisions only select.
+  // The word misses the P writes of its read's clock and of the next; they are compared with the read (registers)
+  // as the word arrives. A write asked for in the clock bPx is loaded (A2 holds a row's last pixel as B starts the
+  // row) is compared a clock ahead with the node B1 then holds, and taken in B1 (`kNode`).
   // bx + 1 >= bN (B1 holds its row's last node) without a compare after bN's multiplexer: a row's first node (bx = 0)
   // is its last when bN <= 1, a flag per slot read like bN; a later node's was compared a cycle ahead (bN stays while
   // B is on a row, bx steps by one), so the row's end only selects between two registers
   val bNAtMostOne = bD.regRead2(VecInit(metaN.map(_ <= 1.U)))
   val bLastAhead = RegNext(bN <= bx +& 2.U, false.B) // for the next node, if B goes on
   val bLast = Mux(bBusy, bLastAhead, bNAtMostOne)
+  val bPx = {
+    val node = Mux(bActive && !bLast, bx(idW - 1, 0) + 2.U, 1.U)
+    val slot = Mux(bActive && bLast, b2.succ, b2.cur)
+    val readAddr = Mux(bActive, Mux(bLast, addr(b2.succ, 1.U), addr(b2.cur, bx(idW - 1, 0) + 2.U)), addr(b2.cur, 1.U))
+    val word = RegNext(pMem.read(readAddr))
+    val hitA = RegNext(pwEn && pwSlot === slot && pwNode === node, false.B)
+    val dataA = RegNext(pwData)
+    val hitB = pwEn && pwSlot === RegNext(slot) && pwNode === RegNext(node)
+    RegNext(Mux(hitB, pwData, Mux(hitA, dataA, word)))
+  }
+  val kNode = {
+    val nextNode = Mux(bBusy, bx(idW - 1, 0) + 1.U, 1.U) // the node B1 holds next cycle, if it holds one
+    val pushIsNext = Mux(q.newRun, q.node === nextNode, top === nextNode)
+    val hitLate = RegNext(pWen && aP === b2.cur && pushIsNext, false.B)
+    Mux(hitLate, pwData, bPx)
+  }
+  // B1 (node bx): P_k[bx] is here; K_k[P_k[bx]] is read. B2 (node b2x, a cycle later) computes and writes K_k[b2x];
+  // P_k[x] < x, so the read sees B2's write of node x - 1 made in the same cycle.
+  val kWordB = kTab.read(1, bKslot, kNode)
+  val b2Px = RegNext(kNode)
+  b1v := bActive && bx < bN
+  b2v := b1v
+  b2x := bx(idW - 1, 0); b2Slot := bKslot
+  // x = 0 and P_k[x] = x decided in B1 (registers into B2's multiplexer)
+  val b2Zero = RegNext(bx === 0.U); val b2Self = RegNext(kNode === bx(idW - 1, 0))
+  bComputed := Mux(b2Zero, 0.U, Mux(b2Self, b2Px, kWordB))
+  when(b2v) { kTab.write(b2Slot, b2x, bComputed) }
   when(bActive) {
     when(bLast) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
       .otherwise { bBusy := true.B; bxN := bx + 1.U }
@@ -955,7 +959,7 @@ object PostProcessSpeckle {
   def idBits(p: ElasParams): Int = log2Ceil(p.maxWidth)
   def sizeBits(p: ElasParams): Int = log2Ceil(p.speckleSize + 1) max 1
   /** Clocks a row takes beyond W when the engines keep up (T waits for A's pipeline and for B, see the class). */
-  val rowExtraClocks = 6
+  val rowExtraClocks = 5
   /** Rows of latency (input row -> output row): L + 2 rows of W, plus the clocks per row the engines take beyond W,
     * which add up to rowExtraClocks x maxHeight clocks over a frame taken at full rate. */
   def latencyRows(p: ElasParams): Int =
