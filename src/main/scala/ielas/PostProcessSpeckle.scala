@@ -313,9 +313,12 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val finTop = Reg(Vec(3, UInt(idW.W)))
   val finSize = Reg(Vec(3, UInt(sW.W)))
   val finAny = RegInit(VecInit(Seq.fill(3)(false.B)))
-  /** Entry x (< W) of row slot `slot`: a concatenation when W is a power of 2. */
+  /** Entry x (< W) of row slot `slot`: a concatenation when W is a power of 2, else the slot's base (a table of the
+    * constants i x W, a LUT per bit; a product by W became a multiplier block on the ECP5, 3 ns and its nets on
+    * every table address) plus x. */
   private def addr(slot: UInt, x: UInt): UInt =
-    if (isPow2(W)) Cat(slot, x(log2Ceil(W) - 1, 0)) else slot * W.U + x
+    if (isPow2(W)) Cat(slot, x(log2Ceil(W) - 1, 0))
+    else VecInit(Seq.tabulate(1 << slot.getWidth)(i => (i * W).U(log2Ceil((1 << slot.getWidth) * W).W)))(slot) + x
   /** S of a finished row: the word read, unless x is the row's last top (kept in registers, not written back). */
   private def finS(buf: UInt, x: UInt, word: UInt): UInt = Mux(finAny(buf) && finTop(buf) === x, finSize(buf), word)
 
