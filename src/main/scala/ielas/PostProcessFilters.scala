@@ -457,6 +457,9 @@ class PostFrame(colBits: Int) extends Bundle {
   * the call that takes it.
   */
 class FilterTaps(p: ElasParams, bits: Int, above: Int, below: Int, vertical: Boolean, in: DecoupledIO[PostBeat]) {
+  /** Vertical: every ring slot's word (block-RAM registers) and the slot of each tap, for a step that registers the
+    * words before it orders them into taps. */
+  var slotWords: Option[(Seq[UInt], Seq[UInt])] = None
   private def frame(sof: Bool, eol: Bool, eof: Bool, lastRow: Bool, cols: UInt): PostFrame = {
     val f = Wire(new PostFrame(p.colBits))
     f.sof := sof; f.eol := eol; f.eof := eof; f.lastRow := lastRow; f.cols := cols
@@ -468,6 +471,7 @@ class FilterTaps(p: ElasParams, bits: Int, above: Int, below: Int, vertical: Boo
       val win = ring.window
       val u = ring.outCol
       val last = ring.atLastCol
+      slotWords = Some((ring.column, (-above to below).map(ring.slotAt)))
       (win.map(_._1), win.map(_._2).reduce(_ && _), ring.rowReady,
         frame(ring.v === 0.U && u === 0.U, last, last && ring.isLast, ring.isLast, ring.width), () => ring.advanceOut())
     } else {
@@ -481,7 +485,7 @@ class FilterTaps(p: ElasParams, bits: Int, above: Int, below: Int, vertical: Boo
 /** Post step 3: adaptive mean, one direction (docs/ALGORITHM.md post 3). Horizontal: taps p-4..p+3 of the row for
   * 4 <= p <= W-4, from a [[RowWindow]] over the stream; vertical: rows v-4..v+3 for 4 <= v <= H-4 (window rows
   * read from the ring at the same column).
-  * A pipeline of 9 register stages: taps; distances to the centre; weights; pair sums of the weighted taps;
+  * A pipeline of 9 register stages (10 vertically: the ring's slot words first): taps; distances to the centre; weights; pair sums of the weighted taps;
   * numerator and denominator; dividend and reciprocal; the product as 4 partial products, then 3 terms, then whole
   * (each partial product fits one 18 x 18 multiplier). It never stalls: a pixel enters only with a credit for the
   * output queue ([[PostMean.outEntries]] entries, room for every pixel entered and not yet taken), so the
@@ -503,7 +507,15 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
   private def st[T <: Data](x: T): T = { val r = Reg(chiselTypeOf(x)); r := x; r }
   private def stValid(x: Bool): Bool = RegNext(x, false.B)
   // 1: taps
-  val v1 = stValid(go); val x1 = st(VecInit(t.taps.map(_.asSInt))); val r1 = st(t.inRange); val f1 = st(t.framing)
+  // 0 (vertical only): the ring slots' words registered as they are, before the slot select orders them into taps
+  // (a block RAM's word through the 9:1 select into the tap register was PostProcess's critical path at `small`)
+  val (v1, x1, r1, f1) = t.slotWords match {
+    case Some((words, slots)) =>
+      val v0 = stValid(go); val w0 = st(VecInit(words)); val s0 = st(VecInit(slots)); val r0 = st(t.inRange)
+      val f0 = st(t.framing)
+      (stValid(v0), st(VecInit(s0.map(s => w0(s).asSInt))), st(r0), st(f0))
+    case None => (stValid(go), st(VecInit(t.taps.map(_.asSInt))), st(t.inRange), st(t.framing))
+  }
   // 2: distances to the centre
   val v2 = stValid(v1); val x2 = st(x1); val r2 = st(r1); val f2 = st(f1)
   val d2 = st(VecInit(x1.map(xi => (xi - x1(4)).abs)))
@@ -553,9 +565,9 @@ class PostMean(p: ElasParams, vertical: Boolean) extends Module {
 }
 
 object PostMean {
-  /** Output queue entries: at full rate a pixel is owed for 12 clocks (the 9 stages, the output register, the queue,
-    * the credit's register), and one more. Fewer would leave bubbles, never lose a pixel. */
-  val outEntries: Int = 13
+  /** Output queue entries: at full rate a pixel is owed for 13 clocks (the 10 stages of the vertical pass, the output
+    * register, the queue, the credit's register), and one more. Fewer would leave bubbles, never lose a pixel. */
+  val outEntries: Int = 14
 }
 
 /** Post step 4: 7-tap median, one direction (docs/ALGORITHM.md post 4), 4th smallest with invalid taps as -1.

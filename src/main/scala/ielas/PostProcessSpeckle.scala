@@ -290,9 +290,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     def pick(groups: UInt, idx: UInt): Bool =
       if (count == 1) groups(0) else VecInit(groups.asBools.take(count))(idx(idW - 1, lo))
   }
-  // C: 32 groups (its pick has time in C2; C1's step follows a block-RAM read); A: 4 groups (the pick is one LUT in
-  // A2's decision)
-  private val rvC = new FlagLookup(5, 16)
+  // C: groups of one chunk (32 classes; at least 32 groups), so C1's lookup takes every index bit it uses from the
+  // copies beside the flags (at kitti a class bit that chose between two chunks in every group was an 8.8 ns net);
+  // the pick has time in C2. A: 4 groups (the pick is one LUT in A2's decision)
+  private val rvC = new FlagLookup(math.max(5, idW - 5), 64)
   private val rvA = new FlagLookup(2, 16)
   /** Bit idx of v as a tree of 4:1 multiplexers (two index bits per LUT level). */
   private def bitAt(v: UInt, idx: UInt): Bool = {
