@@ -167,7 +167,14 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // Delay line (block RAM, 1R1W): written by A, read by D one cycle ahead. A reads the row above from `upRows`, its
   // last 2^(colBits + 1) pixels again (block RAM, 1R1W), so the large memory needs no second read port.
   // (the delay line is read-first, a `Mem` read into a register: D reads rows A has finished, never one A writes)
-  val delay = Mem(ND * W, UInt((vW + idW).W))
+  // In depth chunks of `delayChunkRows` entries (one block deep at this width on the ECP5, where the line is the stage's
+  // largest memory): each chunk's read address comes from its own copy of D's address registers (below), so no one
+  // net reaches every block of the line.
+  private val delayChunkRows = math.min(PostProcessSpeckle.delayChunkRows, ND * W)
+  private val delayChunks = (ND * W + delayChunkRows - 1) / delayChunkRows
+  private val delayLoW = log2Ceil(delayChunkRows)
+  val delay = Seq.tabulate(delayChunks)(i => Mem(math.min(delayChunkRows, ND * W - i * delayChunkRows), UInt((vW + idW).W)))
+  private def delayChunk(a: UInt): UInt = if (delayChunks == 1) 0.U else a >> delayLoW
   val upRows = SyncReadMem(2 << p.colBits, UInt((vW + idW).W))
   // F maps, one memory per row slot, {closed, size or node}. Chain stage i reads slot (seq + i) mod NF; stages of
   // one row read consecutive slots and only adjacent stages (across a row boundary) can meet on one slot, so two
@@ -519,7 +526,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   when(inA0v) {
     cnt := cntBase + newRun.asUInt
     when(newRun) { runId := nodeNow }
-    delay.write(addr(inA0.sl.d, inA0.col), Cat(inA0.v.asUInt, thisRun))
+    val dwAddr = addr(inA0.sl.d, inA0.col)
+    for ((m, i) <- delay.zipWithIndex) when(delayChunk(dwAddr) === i.U) { m.write(dwAddr(delayLoW - 1, 0), Cat(inA0.v.asUInt, thisRun)) }
     upRows.write(inA0.pos, Cat(inA0.v.asUInt, thisRun))
     when(inA0.lastCol) { metaN(inA0.sl.d) := cntBase + newRun.asUInt }
   }
@@ -876,7 +884,21 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   when(dD.incW) { dSuccBase := VecInit((0 until ND).map(i => rowBase((i + 1) % ND)))(dD.succ) }
   assert(dAddrNow === addr(dD.cur, dCol) && dSuccBase === addr(dD.succ, 0.U), "speckle: D's read address registers")
   val dAddrOn = Mux(dRowEnd, dSuccBase, dAddrP1)
-  val word = RegNext(delay.read(Mux(issue, dAddrOn, dAddrNow)))
+  // Each chunk reads at the low bits of the same address, from its own copies of dAddrNow, dAddrP1 and dSuccBase
+  // (XOR-keyed with the chunk index, or Yosys would merge them back into one register); the word is taken from the
+  // chunk the address's high bits name, registered with the read.
+  private def delayCopy(init: UInt, k: Int): UInt = RegInit((init(delayLoW - 1, 0) ^ k.U(delayLoW.W)))
+  val dChunkWords = delay.zipWithIndex.map { case (m, i) =>
+    val k = (i & ((1 << delayLoW) - 1)).U(delayLoW.W)
+    val nowK = delayCopy(0.U(delayAddrW.W), i); val p1K = delayCopy(1.U(delayAddrW.W), i)
+    val succK = delayCopy(rowBase(1 % ND), i)
+    val onK = Mux(dRowEnd, succK, p1K)
+    when(issue) { nowK := onK; p1K := ((onK ^ k) + 1.U) ^ k }
+    when(dD.incW) { succK := VecInit((0 until ND).map(j => rowBase((j + 1) % ND)(delayLoW - 1, 0) ^ k))(dD.succ) }
+    RegNext(m.read(Mux(issue, onK, nowK) ^ k))
+  }
+  val dChunkNow = RegNext(delayChunk(Mux(issue, dAddrOn, dAddrNow)))
+  val word = VecInit(dChunkWords)(dChunkNow)
   val s0 = Wire(new Beat)
   s0.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
   s0.sof := !dVirt && dFirst && dCol === 0.U
@@ -957,6 +979,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
 
 object PostProcessSpeckle {
   def delayRows(p: ElasParams): Int = p.speckleWindowRows + 4
+  /** Entries of a delay-line chunk (see the class): 4k, one DP16KD deep at 4 bits (the line is 20 bits wide at kitti). */
+  val delayChunkRows = 4096
   def mapRows(p: ElasParams): Int = p.speckleWindowRows + 2
   /** The output queue's entries: 3 L + 8 (see `outEntries` in the class). */
   def outEntries(p: ElasParams): Int = 3 * p.speckleWindowRows + 8
