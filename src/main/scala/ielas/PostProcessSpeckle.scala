@@ -66,11 +66,10 @@ import chisel3.util._
   * ceil(5 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
   * Memories: every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
   * row and column, A's pixel count, B's node), at the address a pipeline step forms for the next step, or (D's ring)
-  * from a lane's address register, the beat waiting a clock for its word. A read sees the writes of its own cycle: the row
-  * above is a transparent SyncReadMem; the others are read-first (`Mem` read into a register, so Yosys emulates no
-  * transparency) and either never meet a write of their cycle (the delay line and F maps: D reads rows A has
-  * finished, C writes maps no beat in the chain still needs) or forward it: K, R, S (one replica per reader; K: A0,
-  * B1, C0; R: AK, C1; S: AK, A1, C1) compare the write's slot and entry with the read's (R and S a cycle later,
+  * from a lane's address register, the beat waiting a clock for its word. Every memory is read-first (`Mem` read into
+  * a register, so Yosys emulates no transparency) and either never meets a write of its cycle (the row above, written
+  * W pixels before it is read; the delay line and F maps: D reads rows A has finished, C writes maps no beat in the
+  * chain still needs) or forwards it: K, R, S (one replica per reader; K: AK0, B1, C0; R: AR, C1; S: AR, A1, C1) compare the write's slot and entry with the read's (R and S a cycle later,
   * between registers, when the word arrives; C0's K replica is read a clock earlier still and its word registered
   * once more, with a second compare for the write of the following cycle), P (written a cycle after A
   * asks, from registers) forwards that write and the one asked for this cycle (A's last pixels write while B starts
@@ -175,7 +174,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   private val delayLoW = log2Ceil(delayChunkRows)
   val delay = Seq.tabulate(delayChunks)(i => Mem(math.min(delayChunkRows, ND * W - i * delayChunkRows), UInt((vW + idW).W)))
   private def delayChunk(a: UInt): UInt = if (delayChunks == 1) 0.U else a >> delayLoW
-  val upRows = SyncReadMem(2 << p.colBits, UInt((vW + idW).W))
+  // (read-first, a `Mem` read into a register: a SyncReadMem registers its address, and Yosys then took AK0's up-node
+  // register into the block RAM as its read register, which put the row above's word back on K's read address)
+  val upRows = Mem(2 << p.colBits, UInt((vW + idW).W))
   // F maps, one memory per row slot, {closed, size or node}. Chain stage i reads slot (seq + i) mod NF; stages of
   // one row read consecutive slots and only adjacent stages (across a row boundary) can meet on one slot, so two
   // read ports per slot suffice: even stages on port 0, odd stages on port 1.
@@ -460,7 +461,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // upRows is a ring of A's pixels by pixel count; the up pixel was written (by A0) frameW > 1 pixels before this
   // one, so never in the cycle of this read. Read at the take, the word is there when the pixel is in A0.
   val upPos = RegInit(0.U((p.colBits + 1).W)) // pixels taken, mod 2^(colBits + 1) >= 2 maxWidth
-  val upWord = upRows.read(upPos - frameW)
+  val upWord = RegNext(upRows.read(upPos - frameW))
   val aColIsOne = RegInit(false.B) // aCol === 1 (T waits for the row's second pixel), as a register
   io.in.ready := inFrame && Mux(aBusy, !aColIsOne || bOnRow, rowOk)
   val take = io.in.fire
@@ -999,7 +1000,7 @@ object PostProcessSpeckle {
       MemoryUse("Speckle", "delay", delayRows(p) * w, p.signedDispBits + idW,
         s"(L + 4) rows x maxWidth, value + node id; read-first Mem 1R1W (block RAM), read by D"),
       MemoryUse("Speckle", "upRows", 2 << p.colBits, p.signedDispBits + idW,
-        "A's last 2^(colBits + 1) >= 2 maxWidth pixels (the row above); SyncReadMem 1R1W (block RAM)"),
+        "A's last 2^(colBits + 1) >= 2 maxWidth pixels (the row above); read-first Mem 1R1W (block RAM)"),
       MemoryUse("Speckle", "fmaps", mapRows(p) * w, 1 + math.max(idW, sW),
         "(L + 2) rows x maxWidth forward maps; one read-first Mem per row, 2 read ports (block RAM)"),
       MemoryUse("Speckle", "P", 2 * w, idW, "merge parents (2 rows); read-first Mem 1R1W (block RAM), read by B"),
