@@ -36,7 +36,7 @@ import chisel3.util._
   *   P, R         2 rows x W x idW each (R: 2 replicas);  K, S  3 rows x W x idW / sW (3 replicas each)
   *   R valid flags 2 x W bits (registers; each lookup reads its index from 16 copies, one per run of flags)
   *   row above    2^(colBits + 1) x (dispBits + 1 + idW) (A's last pixels again, >= 2 rows)
-  *   output queue 3 L + 8 x (dispBits + 1 + 4 + colBits) (D's chain never stalls; D issues with a credit)
+  *   output queue 3 L + 9 x (dispBits + 1 + 4 + colBits) (D's chain never stalls; D issues with a credit)
   * A is a pipeline of eight steps, so that no step follows a chain of lookups (each about 6 LUT levels) and no table's
   * block-RAM word is the next table's read address in the same clock (each such link has a register step):
   *  - T takes the input beat into registers and decides whether it joins the left pixel's run; ready depends on
@@ -61,7 +61,7 @@ import chisel3.util._
   *  C in five (the class, its entry, the entry registered, a register per map, then the map write, two clocks after
   *  the row's end).
   * Latency: row v leaves once C has built F_{v+L-1}, i.e. while row v + L is labelled (v + L + 1 when rows have
-  * about W nodes), plus 3 L + 4 clocks of chain and A's steps; at W + 5 clocks a row that is within L + 2 rows of W
+  * about W nodes), plus 3 L + 5 clocks of chain and A's steps; at W + 5 clocks a row that is within L + 2 rows of W
   * for W >= 4 L + 10, and the 5 clocks per row add up over a frame: [[PostProcessSpeckle.latencyRows]] adds
   * ceil(5 maxHeight / maxWidth) rows for them (narrower frames stay within the constant of the spec's bound).
   * Memories: every memory is block RAM, each read one cycle ahead at the address its reader holds next cycle (D's
@@ -318,9 +318,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     }
     level.head
   }
-  // The last top node of a finished row and its size (not written back to sMem), per S buffer.
+  // The last top node of a finished row and its size (not written back to sMem), per S buffer; the size in A2's two
+  // parts (see topA), summed where it is read.
   val finTop = Reg(Vec(3, UInt(idW.W)))
-  val finSize = Reg(Vec(3, UInt(sW.W)))
+  val finSizeA = Reg(Vec(3, UInt(sW.W))); val finSizeP = Reg(Vec(3, UInt(sW.W)))
+  private def finSize(buf: UInt): UInt = VecInit((0 until 3).map(i => satAdd(finSizeA(i), finSizeP(i))))(buf)
   val finAny = RegInit(VecInit(Seq.fill(3)(false.B)))
   /** Entry x (< W) of row slot `slot`: a concatenation when W is a power of 2, else the slot's base (a table of the
     * constants i x W, a LUT per bit; a product by W became a multiplier block on the ECP5, 3 ns and its nets on
@@ -589,7 +591,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // The pixel in A2 is the previous one of the same row (a row's first pixel finds A2 empty); S_{k-1} is complete
   // for a row's first pixel (T takes it once the previous row's last pixel has left A0: that pixel's last S write
   // and finTop come no later than this pixel's AK read).
-  val top = Reg(UInt(idW.W)); val topSize = Reg(UInt(sW.W)); val topAny = Reg(Bool())
+  val top = Reg(UInt(idW.W)); val topA = Reg(UInt(sW.W)); val topP = Reg(UInt(sW.W)); val topAny = Reg(Bool())
   val rnRaw = Mux(a1LateEq && touchLate, touchLateTop, a1RWord)
   val (mHit, mWritten, mRead) = sTab.readParts(1, inA1.sl.s, rnRaw) // S_k[rn]: mWritten if mHit, else mRead
   inA2v := inA1v
@@ -623,29 +625,25 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val touchNew = q.connectU && !rv
   // rn =/= pushTop: after a push rn is older than the new node unless it is that node; else rn =/= top
   val touchOld = q.connectU && rv && Mux(q.newRun, hitR || inA2.neNode, !rnIsTop)
-  // m's size: in S_k, or in topSize when m is the old top written back by a push this very cycle
+  // m's size: in S_k, or the top's size when m is the old top written back by a push this very cycle
   val mIsTop = q.newRun && topAnyBase && rnIsTop
   val newTop = Mux(touchOld, rn, pushTop)
-  // The new size, base + the touched class's or m's size (base = 1 after a push, else topSize + valid), as one
-  // saturating sum min(cap, a + b + valid): nested saturation of non-negative terms is the same (sizes <= cap).
-  // The sums are formed beside the decision, which only selects.
+  // The top's size is kept as two registers, topSize = min(cap, topA + topP), topP holding m's size straight from the
+  // S block RAM's word when a merge read it: the word meets one multiplexer before a flip-flop and no adder (added
+  // to a base and saturated in this cycle, the word crossed the device first and the stage ran at 82 MHz at kitti).
+  // Every other candidate is a sum of registers formed beside the decision, which only selects. Sums of sizes
+  // saturate once, min(cap, a + b + valid): nested saturation of non-negative terms is the same (sizes <= cap), so
+  // topA + topP may stay unsummed while the new size adds to them: topA takes the rest of the sum, topP is kept.
   val v = q.valid.asUInt
-  // m's size from the S block RAM's word (not the forwarded write) enters one sum, base + word with base = 1 after a
-  // push, else topSize + valid (from registers), and that sum one multiplexer at the end: the block RAM's output
-  // meets an adder, the saturation and one select, and every other candidate is formed from registers beside it.
-  val readBase = Mux(q.newRun, 1.U, topSize +& v)
-  // min(cap, base + word): the saturation test compares the word with cap - base (from registers), beside the sum,
-  // so the word goes through one carry chain, not the sum's and then the compare's
-  val readRaw = readBase +& mRead
-  val readOver = mRead.zext >= cap.S - readBase.zext
-  val readSum = Mux(readOver, cap.U, readRaw)(sW - 1, 0)
   val useRead = touchOld && !mHit && !(q.newRun && mIsTop)
-  val oneM = satAdd(1.U(sW.W), mWritten) // (with mRead instead when useRead)
-  val topM = satAdd(topSize +& mWritten, v)
-  val sizeFromRegs = Mux(q.newRun,
-    Mux(touchNew, satAdd(1.U(sW.W), inA2.sPrev), Mux(touchOld, Mux(mIsTop, satAdd(topSize, v), oneM), 1.U(sW.W))),
-    Mux(touchNew, satAdd(topSize +& inA2.sPrev, v), Mux(touchOld, topM, satAdd(topSize, v))))
-  val newSize = Mux(useRead, readSum, sizeFromRegs)
+  val topSize = satAdd(topA, topP) // the true size, from registers (the S write-back of an old top)
+  val newA = Mux(q.newRun,
+    Mux(touchNew, satAdd(1.U(sW.W), inA2.sPrev),
+      Mux(touchOld, Mux(mIsTop, satAdd(topA, v), Mux(mHit, satAdd(1.U(sW.W), mWritten), 1.U(sW.W))), 1.U(sW.W))),
+    Mux(touchNew, satAdd(topA +& inA2.sPrev, v),
+      Mux(touchOld, Mux(mHit, satAdd(topA +& mWritten, v), satAdd(topA +& topP, v)), satAdd(topA, v))))
+  val keepP = !q.newRun || touchOld && mIsTop
+  val newP = Mux(useRead, mRead, Mux(keepP, topP, 0.U))
   topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
   // The flag write lands a clock later, from registers: per buffer one enable per group of 2^clsLoBits classes
   // (decided now, so A2's decision drives 2 x 2^(idW - clsLoBits) registers, not 2 x W enables) and the class's
@@ -666,13 +664,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     when(touchNew) { rTab.write(aP, q.cls, pushTop) }
     when(q.newRun || touchOld) { pWen := true.B; pWSlot := aP; pWNode := pushTop; pWData := Mux(touchOld, rn, pushTop) }
     top := newTop
-    topSize := newSize
+    topA := newA; topP := newP
     topAny := topAnyBase || q.valid
     when(q.lastCol) {
       aInc()
       finAny(aS) := topAnyBase || q.valid
       finTop(aS) := newTop
-      finSize(aS) := newSize
+      finSizeA(aS) := newA; finSizeP(aS) := newP
     }
   }
 
@@ -776,7 +774,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // register per map, loaded only for its own slot (so synthesis keeps them apart and places each by its map), and
   // writes it: one net from C3 to each map, not one to every map cell across the device. The row has ended two
   // clocks before the last write lands (cNext changes at C2): D cannot see that yet, its first map read of a row
-  // is at the fourth clock edge after cNext changes (dCN, dReady, the chain's stage 0, its address register), and A's and B's
+  // is at the fifth clock edge after cNext changes (dCN, dReady, s1, the chain's stage 0, its address register), and A's and B's
   // conditions on C concern its table reads, all done by C2.
   val c3v = RegNext(c2v, false.B)
   val c3Slot = RegNext(cF.cur)
@@ -821,8 +819,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // The chain never stalls: a beat reaches the output register 3 L + 2 clocks after stage0 and goes on into a queue
   // with room for every beat issued and not yet taken (D issues only with a credit), so no chain or ring register has
   // an enable, and the consumer's ready reaches only the queue and the credit count, not thousands of enables.
-  // Its size: at full rate a beat is owed for 3 L + 5 clocks (stage0, 3 L, last, outReg, the queue), its credit comes
-  // back a clock after the take, and one more: 3 L + 8 (fewer would leave bubbles, never lose a beat).
+  // Its size: at full rate a beat is owed for 3 L + 6 clocks (s1, stage0, 3 L, last, outReg, the queue), its credit
+  // comes back a clock after the take, and one more: 3 L + 9 (fewer would leave bubbles, never lose a beat).
   private val outEntries = PostProcessSpeckle.outEntries(p)
   val outReg = RegInit(0.U.asTypeOf(Valid(new OutBeat)))
   outReg.valid := false.B
@@ -887,7 +885,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dAddrOn = Mux(dRowEnd, dSuccBase, dAddrP1)
   // Each chunk reads at the low bits of the same address, from its own copies of dAddrNow, dAddrP1 and dSuccBase
   // (XOR-keyed with the chunk index, or Yosys would merge them back into one register); the word is taken from the
-  // chunk the address's high bits name, registered with the read.
+  // chunk the address's high bits name. Each chunk's word is registered once more before that select (so the select
+  // and the beat's first decisions do not follow a block RAM's clock-to-out across the line's blocks: 87.9 MHz at
+  // kitti), and the beat enters the chain a clock after its issue, with D's fields registered beside its word.
   private def delayCopy(init: UInt, k: Int): UInt = RegInit((init(delayLoW - 1, 0) ^ k.U(delayLoW.W)))
   val dChunkWords = delay.zipWithIndex.map { case (m, i) =>
     val k = (i & ((1 << delayLoW) - 1)).U(delayLoW.W)
@@ -896,12 +896,12 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val onK = Mux(dRowEnd, succK, p1K)
     when(issue) { nowK := onK; p1K := ((onK ^ k) + 1.U) ^ k }
     when(dD.incW) { succK := VecInit((0 until ND).map(j => rowBase((j + 1) % ND)(delayLoW - 1, 0) ^ k))(dD.succ) }
-    RegNext(m.read(Mux(issue, onK, nowK) ^ k))
+    RegNext(RegNext(m.read(Mux(issue, onK, nowK) ^ k)))
   }
-  val dChunkNow = RegNext(delayChunk(Mux(issue, dAddrOn, dAddrNow)))
-  val word = VecInit(dChunkWords)(dChunkNow)
+  val dChunkNow = RegNext(RegNext(delayChunk(Mux(issue, dAddrOn, dAddrNow))))
+  val word = VecInit(dChunkWords)(dChunkNow) // the word of the pixel issued a clock ago
   val s0 = Wire(new Beat)
-  s0.value := Mux(dVirt, -1.S, word(vW + idW - 1, idW).asSInt)
+  s0.value := DontCare // from the word, a clock later
   s0.sof := !dVirt && dFirst && dCol === 0.U
   s0.eol := !dVirt && dRowEnd
   s0.eof := !dVirt && dRowEnd && dLast
@@ -909,10 +909,16 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   s0.cols := dWd
   s0.virt := dVirt
   s0.endUnit := UIntToOH(if (NF > 2) Mux(dF.cur >= 2.U, dF.cur - 2.U, dF.cur + (NF - 2).U) else dF.cur, NF)
-  val s0Look = Wire(new Look)
-  s0Look.closed := false.B
-  s0Look.ptr := word(idW - 1, 0)
-  s0Look.left := Mux(s0.value >= 0.S, dLen, 0.U) // stage i applies F_{seq + i} while i <= n
+  val s1Valid = RegNext(issue, false.B)
+  val s1 = RegNext(s0)
+  val s1Len = RegNext(dLen)
+  val s1Inject = RegNext(UIntToOH(dF.succ, NF))
+  val s1Beat = WireDefault(s1)
+  s1Beat.value := Mux(s1.virt, -1.S, word(vW + idW - 1, idW).asSInt)
+  val s1Look = Wire(new Look)
+  s1Look.closed := false.B
+  s1Look.ptr := word(idW - 1, 0)
+  s1Look.left := Mux(s1Beat.value >= 0.S, s1Len, 0.U) // stage i applies F_{seq + i} while i <= n
   when(issue) {
     when(dRowEnd) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dColP1 }
   }
@@ -943,10 +949,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val word = Wire(UInt((1 + fW).W)).suggestName(s"unit${u}_lane${q}_word")
   }
   val units = Seq.tabulate(NF, 2)((u, q) => new Lane(u, q))
-  stage0.valid := issue
-  stage0.bits := s0
-  look0 := s0Look
-  inject0 := Mux(issue, UIntToOH(dF.succ, NF), 0.U)
+  stage0.valid := s1Valid
+  stage0.bits := s1Beat
+  look0 := s1Look
+  inject0 := Mux(s1Valid, s1Inject, 0.U)
   for (u <- 0 until NF; q <- 0 until 2) {
     val lane = units(u)(q)
     val from = units((u + NF - 1) % NF)(1 - q).st
@@ -983,8 +989,8 @@ object PostProcessSpeckle {
   /** Entries of a delay-line chunk (see the class): 4k, one DP16KD deep at 4 bits (the line is 20 bits wide at kitti). */
   val delayChunkRows = 4096
   def mapRows(p: ElasParams): Int = p.speckleWindowRows + 2
-  /** The output queue's entries: 3 L + 8 (see `outEntries` in the class). */
-  def outEntries(p: ElasParams): Int = 3 * p.speckleWindowRows + 8
+  /** The output queue's entries: 3 L + 9 (see `outEntries` in the class). */
+  def outEntries(p: ElasParams): Int = 3 * p.speckleWindowRows + 9
   def idBits(p: ElasParams): Int = log2Ceil(p.maxWidth)
   def sizeBits(p: ElasParams): Int = log2Ceil(p.speckleSize + 1) max 1
   /** Clocks a row takes beyond W when the engines keep up (T waits for A's pipeline and for B, see the class). */
@@ -1012,6 +1018,6 @@ object PostProcessSpeckle {
         "saturating segment sizes, 3 rows; one read-first Mem 1R1W (block RAM, write forwarded) per reader (AK, A1, C1)"),
       MemoryUse("Speckle", "Rvalid", 2, w, "touched-class flags (registers)"),
       MemoryUse("Speckle", "outQueue", outEntries(p), p.signedDispBits + 4 + p.colBits,
-        "output queue, 3 L + 8 entries (the chain never stalls: D issues with a credit); Chisel Queue (LUT-RAM)"))
+        "output queue, 3 L + 9 entries (the chain never stalls: D issues with a credit); Chisel Queue (LUT-RAM)"))
   }
 }
