@@ -25,7 +25,9 @@ import chisel3.util._
   * the writer would wait for the pipeline's drain at every row. Nothing grows with the image height.
   *
   * Throughput: 1 pixel per clock; N input pixels of frames of one size with no stalls leave in
-  * N + W + [[LrCheck.cycleSlack]] cycles. When a frame follows a more than twice as wide one, its first rows fill
+  * N + W + [[LrCheck.cycleSlack]] cycles. A frame after a wider one keeps the wider row's lag (its first row is
+  * processed only once the wide row has left, and at one pixel per clock the lag is not made up), so for frames of
+  * mixed sizes W is the widest. When a frame follows a more than twice as wide one, its first rows fill
   * the two free slots before the wide last row has left, so the input waits once, for at most the wide width plus cycleSlack
   * ([[LrCheck.narrowingSlack]]); a 4th slot would not remove that, only a buffer addressed by pixel instead of by row.
   * Back-pressure: the output register (draining into a 2-entry queue) stalls the whole pipeline (memory reads are re-issued at the held addresses,
@@ -71,11 +73,15 @@ class LrCheck(p: ElasParams) extends Module {
   }
 
   // ---- pipeline registers ----
-  // The output register drains into a 2-entry queue whose ready is a register, so io.out.ready reaches no memory
-  // address (the pipeline's stall logic stays a couple of LUTs deep).
+  // The output register drains into a 2-entry queue, so io.out.ready reaches no memory address. The pipeline moves
+  // when the output register is empty or the queue has room; the room is a register of its own, set from the
+  // queue's count after this cycle's moves (the queue's ready compares its pointers, and at `small`, where the
+  // memories are LUT-RAM read at this address, that compare made the path 7 LUT levels).
   val outQueue = Module(new Queue(new Framed(new DisparityPair(p)), 2))
   val output = new OutputRegister(outQueue.io.enq)
-  val advance = output.free
+  val queueRoom = RegNext(outQueue.io.count +& outQueue.io.enq.fire.asUInt - outQueue.io.deq.fire.asUInt < 2.U, true.B)
+  assert(queueRoom === outQueue.io.enq.ready, "LrCheck: the queue's room register")
+  val advance = !output.valid || queueRoom
 
   // s0: the next pixel to issue
   val pSlot = RegInit(0.U(2.W))

@@ -76,7 +76,11 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
     nextKeyed ^ k
   }
   // the input writes row outSeq + ahead into the slot of row outSeq + ahead - B; the window reaches back to outSeq - above
-  in.ready := ahead <= (B - above - 1).U
+  // (ready is a register set from ahead's next value: the input's handshake and every slot's write enable start at a
+  // flip-flop, not at a compare of `ahead`, which set the vertical mean's clock at small)
+  private val maxAhead = B - above - 1
+  private val inRoom = RegInit(true.B) // ahead <= maxAhead
+  in.ready := inRoom
   val col: UInt = Mux(in.bits.sof, 0.U, inCol)
   val row: UInt = Mux(in.bits.sof && inCol === 0.U, 0.U, inRow)
   /** Marker write into an earlier slot at the input's column (set by the step; slot must differ from inSlot). */
@@ -109,6 +113,8 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   private val outRowDone = WireDefault(false.B)
   // (ahead + 1 and ahead - 1 are formed from the register; the row ends only select)
   ahead := Mux(inRowDone === outRowDone, ahead, Mux(inRowDone, ahead + 1.U, ahead - 1.U))
+  inRoom := Mux(inRowDone === outRowDone, ahead <= maxAhead.U, Mux(inRowDone, ahead < maxAhead.U, ahead <= (maxAhead + 1).U))
+  assert(inRoom === (ahead <= maxAhead.U), "RowRing: the input's room register")
   /** slotAt(k) = (outSeq + k) mod B, k = -above .. below, as registers that advance with outSeq. */
   private val rel: Map[Int, UInt] = (-above to below).map(k =>
     k -> (if (k == 0) outSlot else RegInit((((k % B) + B) % B).U(sW.W)))).toMap

@@ -34,7 +34,7 @@ import chisel3.util._
   *   delay line   (L + 4) rows x W x (dispBits + 1 + idW)
   *   F maps       (L + 2) rows x W x (1 + max(idW, sW)), one memory per row, 2 read ports
   *   P, R         2 rows x W x idW each (R: 2 replicas);  K, S  3 rows x W x idW / sW (3 replicas each)
-  *   R valid flags 2 x W bits (registers; each lookup reads its index from 16 copies, one per run of flags)
+  *   R valid flags 2 x W bits (registers; each lookup takes its selects from registers beside each chunk of flags)
   *   row above    2^(colBits + 1) x (dispBits + 1 + idW) (A's last pixels again, >= 2 rows)
   *   output queue 3 L + 9 x (dispBits + 1 + 4 + colBits) (D's chain never stalls; D issues with a credit)
   * A is a pipeline of eight steps, so that no step follows a chain of lookups (each about 6 LUT levels) and no table's
@@ -104,6 +104,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   })
 
   private def satAdd(a: UInt, b: UInt): UInt = { val s = a +& b; Mux(s >= cap.U, cap.U, s)(sW - 1, 0) }
+  /** min(cap, a + b + c) with c as the carry in: one carry chain ((2a + c) + (2b + c)) / 2, not a + b and then + c. */
+  private def satAdd3(a: UInt, b: UInt, c: UInt): UInt = {
+    val s = (Cat(a, c) +& Cat(b, c)) >> 1
+    Mux(s >= cap.U, cap.U, s)(sW - 1, 0)
+  }
   /** |a - b| <= T for a, b >= 0 (the only values it decides on), as two compares side by side: no absolute value
     * (a negation) after the subtraction. */
   private def similar(a: SInt, b: SInt): Bool = (a -& b) <= T.S && (b -& a) <= T.S
@@ -160,6 +165,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     /** The same value, from two registers (of this slot and of its successor) and the last cycle's increment: the
       * multiplexer is after the registers, off the path from the increment. */
     def regRead2[T <: Data](v: Vec[T]): T = Mux(RegNext(incW, false.B), RegNext(v(succ)), RegNext(v(cur)))
+    /** (cur + 2) mod n, kept as a register */
+    private val succ2: UInt = RegInit((2 % n).U(w.W))
+    when(incW) { succ2 := Mux(succ2 === (n - 1).U, 0.U, succ2 + 1.U) }
+    /** `v(succ)` one cycle old, of the successor held now (read at the successor held next). */
+    def regReadSucc[T <: Data](v: Vec[T]): T = RegNext(Mux(incW, v(succ2), v(succ)))
   }
 
   // ---- memories ----
@@ -263,36 +273,53 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val touchLateTop = Reg(UInt(idW.W)) // the R write in flight: its data (the pushed top)
   /** The touched flag of a class in two steps, for a register between them (a W:1 multiplexer is too deep and too
     * wide for one step): `groups` looks it up in each group of 2^lo classes (at most 2^hiBits groups), `pick` takes
-    * the group. The first step takes the buffer and the index's low bits from `copies` registers, loaded a clock
-    * ahead by `load`, each serving a run of adjacent chunks of flags: one index register driving a lookup across
-    * 2 x W flip-flops was a 7.8 ns net at kitti. Copy k holds its value XOR k, undone by its chunks' wiring, so the
-    * copies differ and synthesis does not merge them back into one register. */
-  private class FlagLookup(hiBits: Int, copies: Int) {
+    * the group. The first step's selects come from registers loaded a clock ahead by `load`, beside the flags they
+    * select among: one index register driving a lookup across 2 x W flip-flops was a 7.8 ns net at kitti, and A1's
+    * class register driving every group's chunk select 5.0 ns. Synthesis merges registers that load the same value
+    * under the same condition, so copies must differ in what or when they load:
+    *  - `loadWhenMine` (A, whose class comes from a register): per chunk of 2^cb classes the buffer and the class's
+    *    low cb bits, per group the chunk within the group, each loaded only when the class is in that chunk (group).
+    *    The lookup only uses the class's own chunk and group, and each register has a load condition of its own.
+    *  - otherwise (C, whose class is a block-RAM word at the load, too late for a decode): registers loaded every
+    *    clock, copy k holding its value XOR k and serving a run of chunks wired accordingly. Only the key bits
+    *    differ, so synthesis keeps at most two registers per bit (one per polarity). */
+  private class FlagLookup(hiBits: Int, loadWhenMine: Boolean) {
     val lo: Int = idW - math.min(hiBits, idW)
     val count: Int = (W + (1 << lo) - 1) >> lo
     private val cb = math.min(5, lo) // a chunk: 2^cb classes of both buffers
     private val chunks = (W + (1 << cb) - 1) >> cb
-    private val perCopy = {
-      val n = math.min(copies, 2 << cb) // the keys must be distinct
-      (chunks + n - 1) / n
+    private val perGroup = 1 << (lo - cb) // chunks per group
+    require(loadWhenMine || perGroup == 1, "speckle: keyed flag copies serve groups of one chunk")
+    private val perCopy = if (loadWhenMine) 1 else (chunks + (2 << cb) - 1) / (2 << cb) // the keys must be distinct
+    private def copyOf(c: Int): Int = c / perCopy
+    private def keyOf(c: Int): Int = if (loadWhenMine) 0 else copyOf(c)
+    /** The selects for next cycle's lookup of (buf, idx): per chunk (or run of chunks), then per group (none when a
+      * group is a chunk). */
+    def load(buf: UInt, idx: UInt): (Seq[UInt], Seq[UInt]) = {
+      val v = if (cb == 0) buf else Cat(buf, idx(cb - 1, 0))
+      val chunkSel = Seq.tabulate((chunks + perCopy - 1) / perCopy) { k =>
+        val r = Reg(UInt((cb + 1).W))
+        if (loadWhenMine) when((idx >> cb) === k.U) { r := v } else r := v ^ k.U((cb + 1).W)
+        r
+      }
+      val groupSel = if (perGroup == 1) Seq() else Seq.tabulate(count) { g =>
+        val r = Reg(UInt((lo - cb).W))
+        when((idx >> lo) === g.U) { r := idx(lo - 1, cb) }
+        r
+      }
+      (chunkSel, groupSel)
     }
-    private val nCopies = (chunks + perCopy - 1) / perCopy
-    /** The copies for next cycle's lookup of (buf, idx). */
-    def load(buf: UInt, idx: UInt): Seq[UInt] = {
-      val key = if (cb == 0) buf else Cat(buf, idx(cb - 1, 0))
-      Seq.tabulate(nCopies) { k => val r = Reg(UInt((cb + 1).W)); r := key ^ k.U((cb + 1).W); r }
-    }
-    def groups(copies: Seq[UInt], idx: UInt): UInt = {
+    def groups(sel: (Seq[UInt], Seq[UInt])): UInt = {
+      val (chunkSel, groupSel) = sel
       val chunkBits = (0 until chunks).map { c =>
-        val k = c / perCopy
         val flags = Seq.tabulate(2 << cb) { i =>
           val j = (c << cb) + (i & ((1 << cb) - 1))
           if (j < W) rValid(i >> cb)(j) else false.B
         }
-        bitAt(VecInit(Seq.tabulate(2 << cb)(i => flags(i ^ k))).asUInt, copies(k))
+        bitAt(VecInit(Seq.tabulate(2 << cb)(i => flags(i ^ keyOf(c)))).asUInt, chunkSel(copyOf(c)))
       }
-      VecInit(chunkBits.grouped(1 << (lo - cb)).map { g =>
-        if (g.size == 1) g.head else bitAt(VecInit(g).asUInt, idx(lo - 1, cb))
+      VecInit(chunkBits.grouped(perGroup).zipWithIndex.map { case (g, gi) =>
+        if (perGroup == 1) g.head else bitAt(VecInit(g).asUInt, groupSel(gi))
       }.toSeq).asUInt
     }
     def pick(groups: UInt, idx: UInt): Bool =
@@ -301,8 +328,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // C: groups of one chunk (32 classes; at least 32 groups), so C1's lookup takes every index bit it uses from the
   // copies beside the flags (at kitti a class bit that chose between two chunks in every group was an 8.8 ns net);
   // the pick has time in C2. A: 4 groups (the pick is one LUT in A2's decision)
-  private val rvC = new FlagLookup(math.max(5, idW - 5), 64)
-  private val rvA = new FlagLookup(2, 16)
+  private val rvC = new FlagLookup(math.max(5, idW - 5), loadWhenMine = false)
+  private val rvA = new FlagLookup(2, loadWhenMine = true)
   /** Bit idx of v as a tree of 4:1 multiplexers (two index bits per LUT level). */
   private def bitAt(v: UInt, idx: UInt): Bool = {
     var level: Seq[Bool] = v.asBools
@@ -596,7 +623,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val (mHit, mWritten, mRead) = sTab.readParts(1, inA1.sl.s, rnRaw) // S_k[rn]: mWritten if mHit, else mRead
   inA2v := inA1v
   inA2.p := inA1
-  inA2.rvGroups := rvA.groups(rvACopies, inA1.cls)
+  inA2.rvGroups := rvA.groups(rvACopies)
   // the touched-flag write of the pixel that left A2 last cycle lands only now (see touchLate below): A1's read
   // does not hold it
   inA2.hitLate := touchLate && touchLateSlot === inA1.sl.r && touchLateCls === inA1.cls
@@ -640,8 +667,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val newA = Mux(q.newRun,
     Mux(touchNew, satAdd(1.U(sW.W), inA2.sPrev),
       Mux(touchOld, Mux(mIsTop, satAdd(topA, v), Mux(mHit, satAdd(1.U(sW.W), mWritten), 1.U(sW.W))), 1.U(sW.W))),
-    Mux(touchNew, satAdd(topA +& inA2.sPrev, v),
-      Mux(touchOld, Mux(mHit, satAdd(topA +& mWritten, v), satAdd(topA +& topP, v)), satAdd(topA, v))))
+    Mux(touchNew, satAdd3(topA, inA2.sPrev, v),
+      Mux(touchOld, Mux(mHit, satAdd3(topA, mWritten, v), satAdd3(topA, topP, v)), satAdd(topA, v))))
   val keepP = !q.newRun || touchOld && mIsTop
   val newP = Mux(useRead, mRead, Mux(keepP, topP, 0.U))
   topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
@@ -763,7 +790,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val c2x = RegNext(c1x)
   // the touched flag in two steps: the group flags now, the group in C2; and A2's flag write in flight, which the
   // flags do not hold yet (C1 may read a row's flags a clock after its last pixel's decision)
-  val c2OpenGroups = Reg(UInt(rvC.count.W)); c2OpenGroups := rvC.groups(rvCCopies, c1Class)
+  val c2OpenGroups = Reg(UInt(rvC.count.W)); c2OpenGroups := rvC.groups(rvCCopies)
   val c2LateHit = RegNext(touchLate && touchLateSlot === cRbuf && touchLateCls === c1Class, false.B)
   val c2Class = RegNext(c1Class)
   val c2Fin = RegNext(finAny(cSbuf)) && c2Class === RegNext(finTop(cSbuf)) // compared in C2, after registers
@@ -852,8 +879,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dColP1 = RegInit(1.U(p.colBits.W)) // dCol + 1
   val dCNm1 = RegInit(-1.S(9.W)) // dCN - 1, kept as a register (the test below then has no adder after the slot mux)
   dCNm1 := dCNm1 + cIncW.asUInt.zext - dNextIncW.asUInt.zext
-  val dReadyNextRow = RegNext(!dNextIncW && dAN >= 2.S &&
-    (metaVirtual(dD.succ) || dCNm1 > metaLen(dD.succ).zext), false.B)
+  // The next row's meta one cycle old (the slot multiplexer then has a clock of its own, before the compare): written
+  // at least two clocks before A counts that row as labelled (dAN >= 2 below, read now), so the old copy is the same.
+  val dSuccVirt = dD.regReadSucc(metaVirtual); val dSuccLen = dD.regReadSucc(metaLen)
+  val dReadyNextRow = RegNext(!dNextIncW && dAN >= 2.S && (dSuccVirt || dCNm1 > dSuccLen.zext), false.B)
   val dReady = RegInit(false.B)
   val issue = dReady && creditOk
   out.spend(issue && !dVirt) // a virtual row's beat never reaches the queue

@@ -186,12 +186,14 @@ object LrCheckSpec {
     cycles
   }
 
-  /** The no-stall bound: N + latencyRows * W + c, W the width of the last frame (its last row drains alone), plus
-    * [[LrCheck.narrowingSlack]] at each change to a narrower frame (0 for same-size streams).
+  /** The no-stall bound: N + latencyRows * W + c, W the widest frame of the stream (the last row drains alone, and a
+    * frame after a wider one keeps the wider row's lag: its first row starts only when the wide row has left, and at
+    * one pixel per clock the lag is never made up), plus [[LrCheck.narrowingSlack]] at each change to a much
+    * narrower frame (0 for same-size streams).
     */
   def throughputBound(frames: Seq[DenseFrame]): (Long, String) = {
     val n = frames.map(f => f.width.toLong * f.height).sum
-    val w = frames.last.width
+    val w = frames.map(_.width).max
     val widths = frames.map(_.width)
     val narrowing = widths.zip(widths.drop(1)).map { case (a, b) => LrCheck.narrowingSlack(a, b) }.sum
     (n + LrCheck.latencyRows * w + LrCheck.cycleSlack + narrowing,
