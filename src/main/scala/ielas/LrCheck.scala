@@ -74,14 +74,18 @@ class LrCheck(p: ElasParams) extends Module {
 
   // ---- pipeline registers ----
   // The output register drains into a 2-entry queue, so io.out.ready reaches no memory address. The pipeline moves
-  // when the output register is empty or the queue has room; the room is a register of its own, set from the
-  // queue's count after this cycle's moves (the queue's ready compares its pointers, and at `small`, where the
-  // memories are LUT-RAM read at this address, that compare made the path 7 LUT levels).
+  // when the output register is empty or the queue has room, and that is a register of its own, set a cycle ahead:
+  // at `small`, where the memories are LUT-RAM read at addresses the move selects, the queue's pointer compare and
+  // the OR before the address multiplexers made the path 7 LUT levels. Next cycle the output register is empty
+  // only if it moves now without a beat from s3 (a register that does not move is full), and the queue has room if
+  // it holds fewer than 2 beats after this cycle's moves.
   val outQueue = Module(new Queue(new Framed(new DisparityPair(p)), 2))
   val output = new OutputRegister(outQueue.io.enq)
-  val queueRoom = RegNext(outQueue.io.count +& outQueue.io.enq.fire.asUInt - outQueue.io.deq.fire.asUInt < 2.U, true.B)
-  assert(queueRoom === outQueue.io.enq.ready, "LrCheck: the queue's room register")
-  val advance = !output.valid || queueRoom
+  val advance = RegInit(true.B)
+  val s3Valid = RegInit(false.B)
+  advance := advance && !s3Valid ||
+    outQueue.io.count +& outQueue.io.enq.fire.asUInt - outQueue.io.deq.fire.asUInt < 2.U
+  assert(advance === output.free, "LrCheck: the move register")
 
   // s0: the next pixel to issue
   val pSlot = RegInit(0.U(2.W))
@@ -157,7 +161,6 @@ class LrCheck(p: ElasParams) extends Module {
   lookL := Mux(advance, addrL, s2AddrL)
 
   // ---- s3: the looked-up values registered, then the comparisons ----
-  val s3Valid = RegInit(false.B)
   val s3 = Reg(new Bundle {
     val dL = SInt(p.signedDispBits.W); val dR = SInt(p.signedDispBits.W); val inL = Bool(); val inR = Bool()
     val otherR = SInt(p.signedDispBits.W); val otherL = SInt(p.signedDispBits.W) // R(u - dL), L(u + dR)
