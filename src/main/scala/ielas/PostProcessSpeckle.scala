@@ -952,8 +952,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     when(dRowEnd) { dColN := 0.U; dNext := dNext + 1.U; dNextIncW := true.B; dD.inc(); dF.inc() }.otherwise { dColN := dColP1 }
   }
   when(issue) { dColP1 := Mux(dRowEnd, 1.U, dColP1 + 1.U) }
-  // (the issue selects last: its three candidates come from registers)
-  dRowEnd := Mux(issue, Mux(dRowEnd, metaVirtual(dD.succ), dColP1 === dWm1), Mux(dCol === 0.U, metaVirtual(dD.cur), dRowEnd))
+  // (the issue selects last: its three candidates come from registers. The slots' meta one cycle old: at a row change
+  // D goes on at once only when dReadyNextRow saw the next row labelled, its meta written long before; else D waits at
+  // column 0, where dRowEnd follows dVirt until D may issue, which is two clocks after the meta lands at the earliest.)
+  dRowEnd := Mux(issue, Mux(dRowEnd, dSuccVirt, dColP1 === dWm1), Mux(dCol === 0.U, dVirt, dRowEnd))
 
   /** One lookup step of a lane: apply the map's entry while maps are left and the segment is open. */
   private def lookup(b: Look, e: UInt): Look = {
