@@ -424,6 +424,11 @@ def markdown(report):
         "file below it, byte for byte) and the flow are unchanged, so an identical module measured at another "
         "configuration is reused.",
         "",
+    ]
+    for note in report.get("also_notes", []):
+        cfg, _, text = note.partition(":")
+        out += [f"Rows placed at `{cfg}`: {text.strip()}", ""]
+    out += [
         "**The wrapper.** A stage has up to about a thousand port bits and the device 365 IO sites (nextpnr), so each "
         "module is placed inside a generated wrapper (`scripts/timing/wrapper.py`) with three pins: the clock, a scan input "
         "feeding one shift register that drives every input bit of the module (`reset` included), and a scan "
@@ -605,6 +610,9 @@ def main():
     ap.add_argument("--also", action="append", default=[], metavar="CONFIG:MODULE,MODULE",
                     help="also place these modules at another configuration (Verilog in build/verilog/CONFIG), each "
                     "a row of its own after the module's row: for a module that does not fit the part at --config")
+    ap.add_argument("--also-note", action="append", default=[], metavar="CONFIG:TEXT",
+                    help="a sentence printed on the page about the Verilog of an --also configuration (say which "
+                    "commit generated it when it is older than the repository)")
     args = ap.parse_args()
     args.out = args.out or os.path.join("build", "timing", args.config)
     if args.prune and (not args.cached_only or args.modules or not args.doc):
@@ -635,7 +643,7 @@ def main():
                   f"{SEED}")
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
         report = {"config": args.config, "verilog_dir": args.verilog, "date": datetime.date.today().isoformat(),
-                  "verilog_sha256": design.content_hash(args.top, "")[:16], "git_head": head or None,
+                  "verilog_sha256": design.content_hash(args.top, "")[:16], "git_head": head or None, "also_notes": args.also_note,
                   "flow_version": FLOW_VERSION, "tools": tools, "device": DEVICE, "target_mhz": args.freq,
                   "xc7": {"synth": synth_flow.SYNTH_CMD, "sta": "read_verilog -overwrite -lib -specify "
                           "+/xilinx/cells_sim.v; sta", "device": XC7_DEVICE}, "rows": []}
