@@ -129,47 +129,65 @@ class DenseMatcher(p: ElasParams) extends Module {
   val gridFull = RegInit(VecInit(Seq.fill(2)(false.B)))
   val gridTag = Reg(Vec(2, new Tag))
 
-  /** Fills the two banks alternately, one row per bank; a row's tag is (frame parity, row in frame). With
+  /** Fills the two banks alternately, one row per bank; a row's tag is (frame parity, row in frame). A bank's `full`
+    * flag is set by its row's last beat and cleared by `release` (its readers are done with it). With
     * `registeredWrite` the bank write lands a clock after the beat is taken (its enable then starts at a flip-flop,
-    * not at the handshake): only for banks whose readers see a row a clock after its `full` is set. */
-  def loader[T <: Data](in: DecoupledIO[Framed[T]], full: Vec[Bool], tag: Vec[Tag], depth: Int,
+    * not at the handshake): only for banks whose readers see a row a clock after its `full` is set.
+    *
+    * The input's ready is a register holding !full(fill), formed from next cycle's flags, and the loader's own take
+    * is formed from the flags, not from `in.fire`. The two sides of the handshake then share no gate: with one
+    * shared `fire`, the whole top's worst path at tiny-w3-c8 ran from `full` through the plane stage's output logic
+    * and back (8.3 ns of routing).
+    */
+  def loader[T <: Data](in: DecoupledIO[Framed[T]], full: Vec[Bool], tag: Vec[Tag], depth: Int, release: Vec[Bool],
       registeredWrite: Boolean = false)(write: (Int, UInt, T) => Unit): Unit = {
     val fill = RegInit(0.U(1.W))
     val col = RegInit(0.U(log2Ceil(depth + 1).W))
     val row = RegInit(0.U(tag(0).row.getWidth.W))
     val fp = RegInit(false.B)
-    in.ready := !full(fill)
+    val ready = RegInit(true.B)
+    in.ready := ready
+    val take = in.valid && !full(fill)
+    assert(ready === !full(fill), "DenseMatcher: a loader's ready register")
     val beatCol = Mux(in.bits.sof, 0.U, col)
     val addr = beatCol(math.max(log2Ceil(depth), 1) - 1, 0)
     // the bank write: the beat now, or with `registeredWrite` the same beat a clock later
     val (wValid, wBank, wAddr, wData) =
-      if (registeredWrite) (RegNext(in.fire, false.B), RegNext(fill), RegNext(addr), RegNext(in.bits.data))
-      else (in.fire, fill, addr, in.bits.data)
+      if (registeredWrite) (RegNext(take, false.B), RegNext(fill), RegNext(addr), RegNext(in.bits.data))
+      else (take, fill, addr, in.bits.data)
     for (i <- 0 until 2) when(wValid && wBank === i.U) { write(i, wAddr, wData) }
-    when(in.fire) {
+    val rowDone = take && in.bits.eol
+    when(take) {
       val beatFp = Mux(in.bits.sof, !fp, fp)
       val beatRow = Mux(in.bits.sof, 0.U, row)
       fp := beatFp
       col := beatCol + 1.U
       row := beatRow
       when(in.bits.eol) {
-        full(fill) := true.B
         tag(fill).fp := beatFp
         tag(fill).row := beatRow
-        fill := ~fill
         col := 0.U
         row := beatRow + 1.U
       }
     }
+    // a bank is never released while it fills (its readers wait for `full`), so set and release never meet
+    for (i <- 0 until 2) assert(!release(i) || full(i), "DenseMatcher: a loader's bank released while it fills")
+    val fullNext = VecInit((0 until 2).map(i => !release(i) && (full(i) || rowDone && fill === i.U)))
+    val fillNext = Mux(rowDone, ~fill, fill)
+    full := fullNext
+    fill := fillNext
+    ready := !fullNext(fillNext)
   }
-  loader(io.planes, planeFull, planeTag, cellsMax) { (i, addr, cell) =>
+  val planeRelease = WireDefault(VecInit(Seq.fill(2)(false.B)))
+  val gridRelease = WireDefault(VecInit(Seq.fill(2)(false.B)))
+  loader(io.planes, planeFull, planeTag, cellsMax, planeRelease) { (i, addr, cell) =>
     cornerBanks(i).write(addr, cell.corners)
     planeBanksL(i).write(addr, cell.left)
     planeBanksR(i).write(addr, cell.right)
   }
   // The grid banks' write a clock late: stage A reads a row only through aGridHit, a register formed from the banks'
   // `full` flags, so its first read of a row is a clock after `full` is set, when the last write has landed.
-  loader(io.grid, gridFull, gridTag, p.gridColsMax, registeredWrite = true) { (i, addr, cell) =>
+  loader(io.grid, gridFull, gridTag, p.gridColsMax, gridRelease, registeredWrite = true) { (i, addr, cell) =>
     gridBanks(i).write(addr, cell)
   }
 
@@ -615,7 +633,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   aPixel.carry.eof := frameEnd(a)
   // release the grid row bank after its last pixel (its read is in stage A)
   when(aFire && rowEnd(a)) {
-    when(frameEnd(a) || a.vG === (G - 1).U) { gridFull(aGridSel) := false.B }
+    when(frameEnd(a) || a.vG === (G - 1).U) { gridRelease(aGridSel) := true.B }
   }
 
   /** A register step of the upstream pipeline (stages A1..B3): it takes the valid bit of the step before it whenever
@@ -716,7 +734,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   // the left view's targets: descR of the pixels that have passed stage B
   when(bFlow.moves) { ringR.foreach(_.write(b.px.carry.addr, b.px.carry.refs(1))) }
   // the plane row bank is free once the cell row's last pixel has read it (stage B)
-  when(bFlow.moves && b.px.release) { planeFull(b.px.planeSel) := false.B }
+  when(bFlow.moves && b.px.release) { planeRelease(b.px.planeSel) := true.B }
   val ownerPlanes = Seq(planeBanksL, planeBanksR).zipWithIndex.map { case (banks, view) =>
     val planes = readBank(banks, b.px.planeSel, b.owner(view) >> 1, cellsMax)
     Mux(b.owner(view)(0), planes(1), planes(0))

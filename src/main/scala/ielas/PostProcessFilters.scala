@@ -46,8 +46,11 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   private val metaWm1: Vec[UInt] = Reg(Vec(B, UInt(p.colBits.W))) // width - 1, for the output's last-column test
 
   // ---- input side ----
-  /** Rows completed by the input minus rows completed by the output (0 .. B - above). */
-  val ahead: UInt = RegInit(0.U(log2Ceil(B + 1).W))
+  // the input writes row outSeq + ahead into the slot of row outSeq + ahead - B; the window reaches back to outSeq - above
+  private val maxAhead = B - above - 1
+  /** Rows completed by the input minus rows completed by the output (0 .. B - above), with the input's room. */
+  private val rows = new RowsAhead(log2Ceil(B + 1), maxAhead)
+  val ahead: UInt = rows.ahead
   val inSlot: UInt = RegInit(0.U(sW.W)) // (rows completed) mod B
   val inCol: UInt = RegInit(0.U(p.colBits.W))
   val inRow: UInt = RegInit(0.U(p.rowBits.W))
@@ -75,12 +78,9 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
     when(advancing) { colP1Keyed := Mux(atLastCol, (1 ^ key).U, ((colP1Keyed ^ k) + 1.U) ^ k) }
     nextKeyed ^ k
   }
-  // the input writes row outSeq + ahead into the slot of row outSeq + ahead - B; the window reaches back to outSeq - above
-  // (ready is a register set from ahead's next value: the input's handshake and every slot's write enable start at a
-  // flip-flop, not at a compare of `ahead`, which set the vertical mean's clock at small)
-  private val maxAhead = B - above - 1
-  private val inRoom = RegInit(true.B) // ahead <= maxAhead
-  in.ready := inRoom
+  // (ready is the register `rows.free`, set from ahead's next value: the input's handshake and every slot's write
+  // enable start at a flip-flop, not at a compare of `ahead`, which set the vertical mean's clock at small)
+  in.ready := rows.free
   val col: UInt = Mux(in.bits.sof, 0.U, inCol)
   val row: UInt = Mux(in.bits.sof && inCol === 0.U, 0.U, inRow)
   /** Marker write into an earlier slot at the input's column (set by the step; slot must differ from inSlot). */
@@ -111,10 +111,8 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   // ---- output side ----
   val outSlot: UInt = RegInit(0.U(sW.W)) // outSeq mod B
   private val outRowDone = WireDefault(false.B)
-  // (ahead + 1 and ahead - 1 are formed from the register; the row ends only select)
-  ahead := Mux(inRowDone === outRowDone, ahead, Mux(inRowDone, ahead + 1.U, ahead - 1.U))
-  inRoom := Mux(inRowDone === outRowDone, ahead <= maxAhead.U, Mux(inRowDone, ahead < maxAhead.U, ahead <= (maxAhead + 1).U))
-  assert(inRoom === (ahead <= maxAhead.U), "RowRing: the input's room register")
+  rows.update(false.B, inRowDone, outRowDone)
+  assert(rows.free === (ahead <= maxAhead.U), "RowRing: the input's room register")
   /** slotAt(k) = (outSeq + k) mod B, k = -above .. below, as registers that advance with outSeq. */
   private val rel: Map[Int, UInt] = (-above to below).map(k =>
     k -> (if (k == 0) outSlot else RegInit((((k % B) + B) % B).U(sW.W)))).toMap
@@ -350,10 +348,12 @@ class PostColumnGaps(p: ElasParams) extends Module {
   private val wordBits = 1 + rW + 16
   private def word(marker: Bool, end: UInt, value: SInt): UInt = Cat(marker, end.pad(rW), value.asUInt)
   // The input passes 2 register stages before the ring (a stall pipeline: both advance when the ring takes a pixel
-  // or stage 2 is empty): 1 holds the pixel with its column's last valid pixel above; 2 the marker it writes.
+  // or stage 2 is empty): 1 holds the pixel with its column's last valid pixel above, the rows between them and the
+  // gap fill of that run (formed on the way in: computed in stage 1, the fill's adders and compares came before the
+  // marker's conditions and set PostProcess's clock at kitti, 95 MHz); 2 the marker it writes.
   class In1 extends Bundle {
-    val beat = new PostBeat(16); val r = UInt(p.rowBits.W); val lAny = Bool(); val lRow = UInt(p.rowBits.W)
-    val lVal = SInt(16.W)
+    val beat = new PostBeat(16); val r = UInt(p.rowBits.W); val lAny = Bool(); val lVal = SInt(16.W)
+    val gapRows = UInt(p.rowBits.W); val gapFill = SInt(16.W)
   }
   class In2 extends Bundle {
     val beat = new PostBeat(16); val writeWord = UInt(wordBits.W); val extra = Bool(); val back = UInt(rW.W)
@@ -384,12 +384,15 @@ class PostColumnGaps(p: ElasParams) extends Module {
   }
   when(adv) {
     s1.valid := io.in.valid
-    s1.bits.beat := io.in.bits; s1.bits.r := r; s1.bits.lAny := lAny; s1.bits.lRow := lRow; s1.bits.lVal := lVal
+    s1.bits.beat := io.in.bits; s1.bits.r := r; s1.bits.lAny := lAny; s1.bits.lVal := lVal
+    // invalid rows between the last valid pixel above and this one (lRow < r whenever lAny), and their fill
+    s1.bits.gapRows := r - lRow - 1.U
+    s1.bits.gapFill := PostFilters.gapValue(lVal, x)
   }
   // stage 1 -> 2: the marker (fill value, end row) for the first pixel of the run this pixel ends, back rows up
   val x1 = s1.bits.beat.data
   val r1 = s1.bits.r
-  val gapRows = r1 - s1.bits.lRow - 1.U // invalid rows between the last valid pixel above and this one
+  val gapRows = s1.bits.gapRows
   val markBack = WireDefault(0.U(rW.W)) // rows from the marked pixel down to this one
   val markEnd = WireDefault(0.U(rW.W))
   val markFill = WireDefault(0.S(16.W))
@@ -397,13 +400,13 @@ class PostColumnGaps(p: ElasParams) extends Module {
   when(x1 >= 0.S) {
     when(s1.bits.lAny) {
       when(gapRows >= 1.U && gapRows <= G.U) {
-        mark := true.B; markBack := gapRows; markEnd := r1; markFill := PostFilters.gapValue(s1.bits.lVal, x1)
+        mark := true.B; markBack := gapRows; markEnd := r1; markFill := s1.bits.gapFill
       }
     }.otherwise {
       if (p.addCorners) when(r1 >= 1.U && r1 <= G.U) { mark := true.B; markBack := r1; markEnd := r1; markFill := x1 }
     }
   }.elsewhen(s1.bits.beat.lastRow && s1.bits.lAny) {
-    if (p.addCorners) when(r1 - s1.bits.lRow <= G.U) {
+    if (p.addCorners) when(gapRows < G.U) { // r1 - lRow <= G
       mark := true.B; markBack := gapRows; markEnd := r1 +& 1.U; markFill := s1.bits.lVal
     }
   }

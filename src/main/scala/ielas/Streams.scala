@@ -177,7 +177,10 @@ class RowsAhead(width: Int, maxAhead: Int) {
   val free: Bool = RegInit(true.B).suggestName("slotFree")
   /** One cycle: an input row completes (rowIn) and/or the reader leaves a row (rowOut). */
   def update(clear: Bool, rowIn: Bool, rowOut: Bool): Unit = {
-    ahead := Mux(clear, 0.U, ahead) + rowIn.asUInt - rowOut.asUInt
+    // ahead + 1 and ahead - 1 are formed from the register; the row ends only select (from 0 on `clear`)
+    val moved = Mux(rowIn === rowOut, ahead, Mux(rowIn, ahead + 1.U, ahead - 1.U))
+    val fromZero = Mux(rowIn === rowOut, 0.U, Mux(rowIn, 1.U, ((1 << width) - 1).U)) // 0 + rowIn - rowOut
+    ahead := Mux(clear, fromZero, moved)
     free := clear || Mux(rowIn === rowOut, ahead <= maxAhead.U,
       Mux(rowIn, ahead <= (maxAhead - 1).U, ahead <= (maxAhead + 1).U))
   }
