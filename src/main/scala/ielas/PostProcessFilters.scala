@@ -111,7 +111,7 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   // ---- output side ----
   val outSlot: UInt = RegInit(0.U(sW.W)) // outSeq mod B
   private val outRowDone = WireDefault(false.B)
-  rows.update(false.B, inRowDone, outRowDone)
+  rows.update(inRowDone, outRowDone)
   assert(rows.free === (ahead <= maxAhead.U), "RowRing: the input's room register")
   /** slotAt(k) = (outSeq + k) mod B, k = -above .. below, as registers that advance with outSeq. */
   private val rel: Map[Int, UInt] = (-above to below).map(k =>
@@ -207,8 +207,10 @@ class RowWindow(p: ElasParams, bits: Int, in: DecoupledIO[PostBeat]) {
 object PostFilters {
   /** libelas gap fill of a run between valid a and b (sixteenths). */
   def gapValue(a: SInt, b: SInt): SInt = {
-    val diff = (a - b).abs
-    Mux(diff < 48.S, ((a +& b) >> 1).asSInt, Mux(a < b, a, b))
+    // one subtraction: |a - b| < 48 as two compares of a - b with constants, a < b as its sign (an absolute value
+    // and a compare of a with b were two more carry chains on the column-gap step's path at kitti)
+    val d = a -& b
+    Mux(d > (-48).S && d < 48.S, ((a +& b) >> 1).asSInt, Mux(d < 0.S, a, b))
   }
   /** Output register stage: `valid` when the ring has a pixel; returns (fire, register). */
   class OutReg(bits: Int, out: DecoupledIO[PostBeat]) {
@@ -348,12 +350,10 @@ class PostColumnGaps(p: ElasParams) extends Module {
   private val wordBits = 1 + rW + 16
   private def word(marker: Bool, end: UInt, value: SInt): UInt = Cat(marker, end.pad(rW), value.asUInt)
   // The input passes 2 register stages before the ring (a stall pipeline: both advance when the ring takes a pixel
-  // or stage 2 is empty): 1 holds the pixel with its column's last valid pixel above, the rows between them and the
-  // gap fill of that run (formed on the way in: computed in stage 1, the fill's adders and compares came before the
-  // marker's conditions and set PostProcess's clock at kitti, 95 MHz); 2 the marker it writes.
+  // or stage 2 is empty): 1 holds the pixel with its column's last valid pixel above; 2 the marker it writes.
   class In1 extends Bundle {
-    val beat = new PostBeat(16); val r = UInt(p.rowBits.W); val lAny = Bool(); val lVal = SInt(16.W)
-    val gapRows = UInt(p.rowBits.W); val gapFill = SInt(16.W)
+    val beat = new PostBeat(16); val r = UInt(p.rowBits.W); val lAny = Bool(); val lRow = UInt(p.rowBits.W)
+    val lVal = SInt(16.W)
   }
   class In2 extends Bundle {
     val beat = new PostBeat(16); val writeWord = UInt(wordBits.W); val extra = Bool(); val back = UInt(rW.W)
@@ -384,15 +384,12 @@ class PostColumnGaps(p: ElasParams) extends Module {
   }
   when(adv) {
     s1.valid := io.in.valid
-    s1.bits.beat := io.in.bits; s1.bits.r := r; s1.bits.lAny := lAny; s1.bits.lVal := lVal
-    // invalid rows between the last valid pixel above and this one (lRow < r whenever lAny), and their fill
-    s1.bits.gapRows := r - lRow - 1.U
-    s1.bits.gapFill := PostFilters.gapValue(lVal, x)
+    s1.bits.beat := io.in.bits; s1.bits.r := r; s1.bits.lAny := lAny; s1.bits.lRow := lRow; s1.bits.lVal := lVal
   }
   // stage 1 -> 2: the marker (fill value, end row) for the first pixel of the run this pixel ends, back rows up
   val x1 = s1.bits.beat.data
   val r1 = s1.bits.r
-  val gapRows = s1.bits.gapRows
+  val gapRows = r1 - s1.bits.lRow - 1.U // invalid rows between the last valid pixel above and this one
   val markBack = WireDefault(0.U(rW.W)) // rows from the marked pixel down to this one
   val markEnd = WireDefault(0.U(rW.W))
   val markFill = WireDefault(0.S(16.W))
@@ -400,13 +397,13 @@ class PostColumnGaps(p: ElasParams) extends Module {
   when(x1 >= 0.S) {
     when(s1.bits.lAny) {
       when(gapRows >= 1.U && gapRows <= G.U) {
-        mark := true.B; markBack := gapRows; markEnd := r1; markFill := s1.bits.gapFill
+        mark := true.B; markBack := gapRows; markEnd := r1; markFill := PostFilters.gapValue(s1.bits.lVal, x1)
       }
     }.otherwise {
       if (p.addCorners) when(r1 >= 1.U && r1 <= G.U) { mark := true.B; markBack := r1; markEnd := r1; markFill := x1 }
     }
   }.elsewhen(s1.bits.beat.lastRow && s1.bits.lAny) {
-    if (p.addCorners) when(gapRows < G.U) { // r1 - lRow <= G
+    if (p.addCorners) when(r1 - s1.bits.lRow <= G.U) {
       mark := true.B; markBack := gapRows; markEnd := r1 +& 1.U; markFill := s1.bits.lVal
     }
   }

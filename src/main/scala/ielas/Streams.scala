@@ -177,10 +177,16 @@ class RowsAhead(width: Int, maxAhead: Int) {
   val free: Bool = RegInit(true.B).suggestName("slotFree")
   /** One cycle: an input row completes (rowIn) and/or the reader leaves a row (rowOut). */
   def update(clear: Bool, rowIn: Bool, rowOut: Bool): Unit = {
-    // ahead + 1 and ahead - 1 are formed from the register; the row ends only select (from 0 on `clear`)
-    val moved = Mux(rowIn === rowOut, ahead, Mux(rowIn, ahead + 1.U, ahead - 1.U))
-    val fromZero = Mux(rowIn === rowOut, 0.U, Mux(rowIn, 1.U, ((1 << width) - 1).U)) // 0 + rowIn - rowOut
-    ahead := Mux(clear, fromZero, moved)
+    ahead := Mux(clear, 0.U, ahead) + rowIn.asUInt - rowOut.asUInt
+    setFree(clear, rowIn, rowOut)
+  }
+  /** The same for a buffer that is never cleared: ahead + 1 and ahead - 1 are formed from the register, and the row
+    * ends only select. (With a clear, this form put LatticeFill at 7 LUT levels.) */
+  def update(rowIn: Bool, rowOut: Bool): Unit = {
+    ahead := Mux(rowIn === rowOut, ahead, Mux(rowIn, ahead + 1.U, ahead - 1.U))
+    setFree(false.B, rowIn, rowOut)
+  }
+  private def setFree(clear: Bool, rowIn: Bool, rowOut: Bool): Unit = {
     free := clear || Mux(rowIn === rowOut, ahead <= maxAhead.U,
       Mux(rowIn, ahead <= (maxAhead - 1).U, ahead <= (maxAhead + 1).U))
   }
