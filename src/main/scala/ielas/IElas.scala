@@ -122,7 +122,9 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
   }
   val filter: DecoupledIO[Framed[SInt]] = if (!needs(Stage.Filter)) null else {
     val m = Module(new SupportFilter(p))
-    m.io.in <> support
+    // a slice: the filter's ready (from its row count and the beat's start of frame) and the matcher's output move
+    // were one path across both stages (the whole top's worst at tiny-w3-c8, 79.8 MHz)
+    m.io.in <> RegisterSlice(support)
     m.io.out
   }
   private val filterFork: Seq[DecoupledIO[Framed[SInt]]] = if (!needs(Stage.Interp) && !needs(Stage.Grid)) null else {
