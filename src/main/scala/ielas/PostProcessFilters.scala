@@ -430,25 +430,30 @@ class PostColumnGaps(p: ElasParams) extends Module {
   val ou = ring.outCol
   val w = ring.centre
   val a = activeMem.read(ring.outColNext)
-  // One register stage (stall pipeline) between the memories and the value: the ring word, the column's running fill,
-  // the row and the framing. The running fill of column u is written back from that stage; the next read of column
-  // u (next row) comes a row later.
+  // Two register stages (stall pipeline) between the memories and the value: the ring word, the column's running
+  // fill, the row and the framing. Stage 1's copy of the fill is the block RAM's own output register (synthesis
+  // merges it), whose clock-to-out leaves too little of the clock for the compare and select, so they start from
+  // stage 2. The running fill of column u is written back from stage 2; the next read of column u (next row) is
+  // issued width - 1 >= 2 cycles after stage 2 held column u, so it sees the write (rows are at least 32 wide).
   val oAdv = o.canLoad
   val goOut = ring.rowReady && oAdv
   when(goOut) { ring.advanceOut() }
   private def st[T <: Data](x: T): T = RegEnable(x, oAdv)
-  val ov = RegEnable(goOut, false.B, oAdv)
+  val ov1 = RegEnable(goOut, false.B, oAdv)
   val w1 = st(w); val a1 = st(a); val v1 = st(ring.v); val u1 = st(ou)
   val sof1 = st(ring.v === 0.U && ou === 0.U); val eol1 = st(ring.atLastCol); val isLast1 = st(ring.isLast)
   val width1 = st(ring.width)
-  val wValue1 = w1(15, 0).asSInt
-  val wEnd1 = w1(15 + rW, 16)
-  val wMark1 = w1(wordBits - 1)
-  val aOn = v1 =/= 0.U && a1(rW + 16) && v1 < a1(rW + 15, 16)
-  val value = Mux(wMark1, wValue1, Mux(aOn, a1(15, 0).asSInt, wValue1)) // a marked word's value is its fill
+  val ov = RegEnable(ov1, false.B, oAdv)
+  val w2 = st(w1); val a2 = st(a1); val v2 = st(v1); val u2 = st(u1)
+  val sof2 = st(sof1); val eol2 = st(eol1); val isLast2 = st(isLast1); val width2 = st(width1)
+  val wValue2 = w2(15, 0).asSInt
+  val wEnd2 = w2(15 + rW, 16)
+  val wMark2 = w2(wordBits - 1)
+  val aOn = v2 =/= 0.U && a2(rW + 16) && v2 < a2(rW + 15, 16)
+  val value = Mux(wMark2, wValue2, Mux(aOn, a2(15, 0).asSInt, wValue2)) // a marked word's value is its fill
   when(oAdv && ov) {
-    o.load(value, sof1, eol1, eol1 && isLast1, isLast1, width1)
-    activeMem.write(u1, Mux(wMark1, Cat(true.B, wEnd1, wValue1.asUInt), Mux(v1 === 0.U, 0.U, a1)))
+    o.load(value, sof2, eol2, eol2 && isLast2, isLast2, width2)
+    activeMem.write(u2, Mux(wMark2, Cat(true.B, wEnd2, wValue2.asUInt), Mux(v2 === 0.U, 0.U, a2)))
   }
 }
 

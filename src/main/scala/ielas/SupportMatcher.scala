@@ -39,8 +39,8 @@ import chisel3.util._
   * Schedule: every sweep follows its own reference read, and two nodes are in flight so that the read port never
   * waits for the pipeline: L(n), L(n+1), R(n), L(n+2), R(n+1), ... (L = left reference read + left sweep, R = right
   * reference read + right sweep, its setup registered from the node's left result). A node's left result arrives
-  * while the next node's left sweep runs. Node cycles: 2 reference reads + two sweeps of at most
-  * ceil((dhi + 2r) / L) + 1 blocks (ElasParams.supportNodeCycles), within supportCyclesPerPoint = cyclesPerPixel x
+  * while the next node's left sweep runs. Node cycles: 2 reference reads + two sweeps of at least two
+  * and at most ceil((dhi + 2r) / L) + 1 blocks (ElasParams.supportNodeCycles), within supportCyclesPerPoint = cyclesPerPixel x
   * step^2 at every named configuration. Only the last searched node of a lattice row (the next one is not searched, or
   * is in the next lattice row, whose slot differs) waits for its own left result: ElasParams.supportDrainCycles, once
   * per lattice row, paid by the row's first node, which lies in the margin and takes one cycle. The node's decision
@@ -249,8 +249,8 @@ class SupportMatcher(p: ElasParams) extends Module {
   def dhiLOf(u: UInt): UInt = dispMin(u - margin.U)
   /** Node u of this lattice row is searched (else it holds no support): inside the margins, left range >= minimum. */
   def searched(u: UInt): Bool = rowActive && u >= margin.U && u +& margin.U < width && dhiLOf(u) >= p.supportMinRange.U
-  // the next node of this row (when not eol), registered: walkU is stable for cycles before it is used
-  val uNext = RegNext(Mux(walkU +& step.U < width, walkU + step.U, width - 1.U))
+  // the next node of this row (when not eol): set when the walker moves, so that it is current one cycle later
+  val uNext = RegInit(0.U(p.colBits.W))
   // per frame (width is held all frame): the last column t - r a right sweep may reach, W - 1 - margin - r, and + 2r
   val rightLimit = RegNext(width - (1 + margin + r).U)
   val rightLimit2 = RegNext(width - (1 + margin - r).U)
@@ -261,6 +261,11 @@ class SupportMatcher(p: ElasParams) extends Module {
   val j = RegInit(0.U(blockW.W)) //   block the sweep reads this cycle (the sweep runs from j down to jLo)
   val jLo = RegInit(0.U(blockW.W))
   val sweepStart = RegInit(false.B) // the sweep's first block (its result starts the running best)
+  // Block j is the sweep's last: a register, not j === jLo, because the walker's decisions hang on it (that compare
+  // at the head of the last block's decisions was the whole top's worst path). A sweep issues at least two blocks, so
+  // the first block is never the last: a sweep whose columns lie in one block also issues the block below it, whose
+  // lanes all lie outside the sweep. ElasParams.supportSweepCycles counts at least two blocks per sweep already.
+  val lastBlock = RegInit(false.B)
   val minC1 = RegInit(0.U(colW.W)) // target columns t - r of the sweep's disparities: minC1 .. maxC1
   val maxC1 = RegInit(0.U(colW.W))
   // One read per bank and cycle. A reference read fetches the L consecutive columns from c0 = u - r on (banks below
@@ -315,10 +320,16 @@ class SupportMatcher(p: ElasParams) extends Module {
   // previous sweep's last block has left stage A when the new references arrive.
   val refData = ShiftRegister(refRead, SupportMatcher.readLatency - 1, false.B, true.B) // its data is in `data`
   val refDataC0 = ShiftRegister(readC0, SupportMatcher.readLatency - 1)
-  val refLo = Reg(Vec(2, UInt(descBits.W)))
-  val refHi = Reg(Vec(2, UInt(descBits.W)))
-  for (kind <- 0 until 2) {
-    when(refData) { refLo(kind) := column(data(kind), refDataC0); refHi(kind) := column(data(kind), refDataC0 + (2 * r).U) }
+  // One copy of the references per half of the lanes (SupportMatcher.refCopies): a single copy drives every lane's
+  // SADs, and that net, spread over the lanes, was SupportMatcher's worst path at `small` (4.4 ns of routing). The
+  // copies load the same value at the same time, so synthesis would merge them; their reset values differ, which
+  // keeps them apart (the reset value is never used: a sweep reads its references first).
+  private def refCopy(copy: Int): Vec[UInt] =
+    RegInit(VecInit(Seq.fill(2)((if (copy % 2 == 0) BigInt(0) else (BigInt(1) << descBits) - 1).U(descBits.W))))
+  val refLoCopies = Seq.tabulate(SupportMatcher.refCopies(p))(refCopy)
+  val refHiCopies = Seq.tabulate(SupportMatcher.refCopies(p))(refCopy)
+  for (kind <- 0 until 2; (lo, hi) <- refLoCopies.zip(refHiCopies)) {
+    when(refData) { lo(kind) := column(data(kind), refDataC0); hi(kind) := column(data(kind), refDataC0 + (2 * r).U) }
   }
 
   // ---- search pipeline: issue (read) -> A: the SAD parts per lane -> A2: half costs -> B1: lane costs -> B: first
@@ -331,7 +342,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   val hold = WireDefault(false.B) // the right sweep's last block waits for the previous node's decision
   val issue = state === sSweep && !hold
   val tag = Wire(new Tag)
-  tag.left := phaseLeft; tag.first := sweepStart; tag.last := j === jLo
+  tag.left := phaseLeft; tag.first := sweepStart; tag.last := lastBlock
   val s0Valid = ShiftRegister(issue, SupportMatcher.readLatency, false.B, true.B) // the block's data is in `data`
   val s0Tag = atData(tag)
   // Which lanes of block j hold columns c1 = jL + k of the sweep (laneLo <= k < laneEnd), and lane k's d (left:
@@ -377,6 +388,8 @@ class SupportMatcher(p: ElasParams) extends Module {
   val aValid = RegNext(s0Valid, false.B)
   val aTag = RegEnable(s0Tag, s0Valid)
   val aParts = (0 until lanes).map { k =>
+    val refLo = refLoCopies(k * refLoCopies.length / lanes)
+    val refHi = refHiCopies(k * refHiCopies.length / lanes)
     val parts = (0 until 2).flatMap { kind =>
       val cur = data(kind)
       val partner = if (k + 2 * r < banks) cur(k + 2 * r) else prevBlock(kind)(k + 2 * r - banks)
@@ -508,11 +521,13 @@ class SupportMatcher(p: ElasParams) extends Module {
     state := sNode
     when(nodeEol) {
       walkU := 0.U
+      uNext := Mux(step.U < width, step.U, width - 1.U)
       walkV := Mux(walkV +& step.U < height, walkV + step.U, height - 1.U)
       setWalkSlot(Mux(walkSlot === (slots - 1).U, 0.U, walkSlot + 1.U))
       when(nodeEof) { state := sIdle; walkBusy := false.B }
     }.otherwise {
-      walkU := Mux(walkU +& step.U < width, walkU + step.U, width - 1.U)
+      walkU := uNext
+      uNext := Mux(uNext +& step.U < width, uNext + step.U, width - 1.U)
     }
   }
   /** Sets up the left sweep of node u (its references are read this cycle). */
@@ -523,6 +538,7 @@ class SupportMatcher(p: ElasParams) extends Module {
     refTop := (u - r.U) +& p.dispMax.U
     refTop2 := u +& (r + p.dispMax).U
     sweepStart := true.B
+    lastBlock := false.B
     minC1 := u - r.U - dhiL
     maxC1 := u - r.U
     j := blockOf(u + r.U)
@@ -557,18 +573,24 @@ class SupportMatcher(p: ElasParams) extends Module {
   val headSetup = RegNext(rightSetup(leftNodes(lnHead)))
   val headSetupValid = RegNext(headReady && !dequeue, false.B) // headSetup is the current head's
   val rightIssue = state === sRight && headSetupValid
-  /** After the last block of a sweep, with `others` left nodes besides the walker's: the next node's left sweep
-    * goes first when it is searched in this lattice row and only the walker's node waits (its result then arrives
-    * while the next node is swept: no cycle waits for the search pipeline); else the oldest node's right sweep.
+  /** After the last block of a sweep: the next node's left sweep goes first when it is searched in this lattice row
+    * and only the walker's node waits (its result then arrives while the next node is swept: no cycle waits for the
+    * search pipeline); else the oldest node's right sweep. A left sweep's walker waits when it is the only left node;
+    * after a right sweep the walker moves on when no other node waits, and else when the next node is searched.
+    * Registered: their inputs (the walker, its next node and the left-node count) change only at a sweep's last block
+    * or in sNode, and every sweep starts after at least one cycle in sNode or sRight, so the flags are current at
+    * every issue.
     */
-  def next(walkerWaits: Bool): Unit = {
-    when(walkerWaits && !nodeEol && searched(uNext)) { advance() }.otherwise { state := sRight }
-  }
+  def leftAdvancesNow: Bool = lnCount === 0.U && !nodeEol && searched(uNext)
+  def rightAdvancesNow: Bool = lnCount === 1.U || !nodeEol && searched(uNext)
+  val leftAdvances = RegNext(leftAdvancesNow, false.B)
+  val rightAdvances = RegNext(rightAdvancesNow, false.B)
 
   switch(state) {
     is(sIdle) {
       when(startFrame) {
         walkU := 0.U; walkV := 0.U; setWalkSlot(0.U)
+        uNext := Mux(step.U < io.frameWidth, step.U, io.frameWidth - 1.U)
         state := sNode
       }
     }
@@ -589,10 +611,14 @@ class SupportMatcher(p: ElasParams) extends Module {
       when(issue) {
         sweepStart := false.B
         j := j - 1.U
-        when(j === jLo) {
+        lastBlock := j - 1.U === jLo || sweepStart && j === jLo
+        when(lastBlock) {
+          assert(j === jLo || j + 1.U === jLo, "SupportMatcher: lastBlock is not the sweep's last block")
+          assert(leftAdvances === leftAdvancesNow && rightAdvances === rightAdvancesNow,
+            "SupportMatcher: the registered walker decision lags its inputs")
           when(phaseLeft) {
             enqueue := true.B
-            next(lnCount === 0.U)
+            when(leftAdvances) { advance() }.otherwise { state := sRight }
           }.otherwise { // hand the oldest node to the decision
             dequeue := true.B
             val n = leftNodes(lnHead)
@@ -601,7 +627,7 @@ class SupportMatcher(p: ElasParams) extends Module {
             pendLeft := n.left
             pendTexL := n.texL
             pendRangeOk := maxC1 - minC1 >= p.supportMinRange.U
-            when(lnCount === 1.U) { advance() }.otherwise { next(true.B) }
+            when(rightAdvances) { advance() }.otherwise { state := sRight }
           }
         }
       }
@@ -613,6 +639,7 @@ class SupportMatcher(p: ElasParams) extends Module {
         readC0 := headSetup.c0
         refRead := true.B
         sweepStart := true.B
+        lastBlock := false.B
         minC1 := headSetup.c0
         maxC1 := headSetup.maxC1
         j := headSetup.j
@@ -623,10 +650,10 @@ class SupportMatcher(p: ElasParams) extends Module {
   }
   when(rightIssue) { bankAddr := headSetup.bankAddr } // the right references, u' - r .. u' + r
   // the last right block of a node waits until the previous node's decision has left
-  when(state === sSweep && !phaseLeft && j === jLo && pendBusy) { hold := true.B }
+  when(state === sSweep && !phaseLeft && lastBlock && pendBusy) { hold := true.B }
 
   // decision of the pending node: its right result, then the tests, then the output register
-  when(RegNext(state === sSweep && issue && !phaseLeft && j === jLo, false.B)) { pendTexR := texBits(1) } // at u'
+  when(RegNext(state === sSweep && issue && !phaseLeft && lastBlock, false.B)) { pendTexR := texBits(1) } // at u'
   when(rightDone) { pendRight := merged; pendStage := 1.U }
   when(pendStage === 1.U) {
     val diff = Mux(pendLeft.d1 > pendRight.d1, pendLeft.d1 - pendRight.d1, pendRight.d1 - pendLeft.d1)
@@ -658,6 +685,10 @@ object SupportMatcher {
   def banks(p: ElasParams): Int = p.supportLanesUsed
 
   def wordsPerRow(p: ElasParams): Int = (p.maxWidth + banks(p) - 1) / banks(p)
+
+  /** Copies of the reference registers (2 kinds x columns u - r, u + r x descriptor bits each): two when there are
+    * at least 8 lanes, each serving half of them. */
+  def refCopies(p: ElasParams): Int = if (p.supportLanesUsed >= 8) 2 else 1
 
   /** Bits of a cost: 4 descriptors x 16 bytes x 255, plus room for the "no disparity" value above it. */
   def costBits(p: ElasParams): Int = log2Ceil(4 * p.descriptorBytes * 255 + 2)
