@@ -295,39 +295,43 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     private def keyOf(c: Int): Int = if (loadWhenMine) 0 else copyOf(c)
     /** The selects for next cycle's lookup of (buf, idx): per chunk (or run of chunks), then per group (none when a
       * group is a chunk). */
-    def load(buf: UInt, idx: UInt): (Seq[UInt], Seq[UInt]) = {
+    def load(buf: UInt, idx: UInt): (Seq[UInt], Seq[UInt]) = (loadChunks(buf, idx), loadGroups(idx))
+    def loadChunks(buf: UInt, idx: UInt): Seq[UInt] = {
       val v = if (cb == 0) buf else Cat(buf, idx(cb - 1, 0))
-      val chunkSel = Seq.tabulate((chunks + perCopy - 1) / perCopy) { k =>
+      Seq.tabulate((chunks + perCopy - 1) / perCopy) { k =>
         val r = Reg(UInt((cb + 1).W))
         if (loadWhenMine) when((idx >> cb) === k.U) { r := v } else r := v ^ k.U((cb + 1).W)
         r
       }
-      val groupSel = if (perGroup == 1) Seq() else Seq.tabulate(count) { g =>
-        val r = Reg(UInt((lo - cb).W))
-        when((idx >> lo) === g.U) { r := idx(lo - 1, cb) }
-        r
-      }
-      (chunkSel, groupSel)
     }
-    def groups(sel: (Seq[UInt], Seq[UInt])): UInt = {
-      val (chunkSel, groupSel) = sel
-      val chunkBits = (0 until chunks).map { c =>
-        val flags = Seq.tabulate(2 << cb) { i =>
-          val j = (c << cb) + (i & ((1 << cb) - 1))
-          if (j < W) rValid(i >> cb)(j) else false.B
-        }
-        bitAt(VecInit(Seq.tabulate(2 << cb)(i => flags(i ^ keyOf(c)))).asUInt, chunkSel(copyOf(c)))
+    def loadGroups(idx: UInt): Seq[UInt] = if (perGroup == 1) Seq() else Seq.tabulate(count) { g =>
+      val r = Reg(UInt((lo - cb).W))
+      when((idx >> lo) === g.U) { r := idx(lo - 1, cb) }
+      r
+    }
+    /** The class's flag within each chunk (the flags as they are this cycle). */
+    def chunkBits(chunkSel: Seq[UInt]): Seq[Bool] = (0 until chunks).map { c =>
+      val flags = Seq.tabulate(2 << cb) { i =>
+        val j = (c << cb) + (i & ((1 << cb) - 1))
+        if (j < W) rValid(i >> cb)(j) else false.B
       }
+      bitAt(VecInit(Seq.tabulate(2 << cb)(i => flags(i ^ keyOf(c)))).asUInt, chunkSel(copyOf(c)))
+    }
+    /** Each group's chunk. */
+    def groupsOf(chunkBits: Seq[Bool], groupSel: Seq[UInt]): UInt =
       VecInit(chunkBits.grouped(perGroup).zipWithIndex.map { case (g, gi) =>
         if (perGroup == 1) g.head else bitAt(VecInit(g).asUInt, groupSel(gi))
       }.toSeq).asUInt
-    }
+    def groups(sel: (Seq[UInt], Seq[UInt])): UInt = groupsOf(chunkBits(sel._1), sel._2)
     def pick(groups: UInt, idx: UInt): Bool =
       if (count == 1) groups(0) else VecInit(groups.asBools.take(count))(idx(idW - 1, lo))
   }
   // C: groups of one chunk (32 classes; at least 32 groups), so C1's lookup takes every index bit it uses from the
   // copies beside the flags (at kitti a class bit that chose between two chunks in every group was an 8.8 ns net);
-  // the pick has time in C2. A: 4 groups (the pick is one LUT in A2's decision)
+  // the pick has time in C2. A: 4 groups (the pick is one LUT in A2's decision); A's lookup takes three steps (the
+  // chunks in A1R, the groups in A1, the pick in A2): at kitti the chunks and groups in one clock, across the 2 x W
+  // flags, ran at 95 MHz
+
   private val rvC = new FlagLookup(math.max(5, idW - 5), loadWhenMine = false)
   private val rvA = new FlagLookup(2, loadWhenMine = true)
   /** Bit idx of v as a tree of 4:1 multiplexers (two index bits per LUT level). */
@@ -445,7 +449,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val rvGroups = UInt(rvA.count.W); val rn = UInt(idW.W) // R_k flag (its first lookup step) and node of cls in A1
     val sPrev = UInt(sW.W) // S_{k-1}[cls]
     val hitPre = Bool() // the pixel then in A2 had the same class
-    val hitLate = Bool() // the pixel before that touched this class first (its flag write was not in A1's read)
+    val hitLate = Bool() // one of the two pixels before that touched this class first (not in A1R's flag read)
     val neNode = Bool() // rn =/= node
     val eqT = Bool(); val eqN = Bool(); val eqR = Bool() // rn equals the pixel then in A2's top, node, rn
     // cls decoded in two parts (low clsLoBits bits, the rest), so A2's touched-flag write is an AND of two of these
@@ -594,6 +598,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // ---- AR: R_k[cls] and S_{k-1}[cls] are read (the class from a register, not from K's block-RAM word) ----
   val rWordA = rTab.read(0, inAR.sl.r, inAR.cls)
   val sPrevWord = sTab.read(0, inAR.sl.sPrev, inAR.cls)
+  val rvAChunkSel = rvA.loadChunks(inAR.sl.r, inAR.cls) // for A1R's chunk lookup
   inA1Rv := inARv
   inA1R := inAR
 
@@ -607,7 +612,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val a1LateEq = RegNext(inA2v && inA2.p.sl.r === inA1R.sl.r && inA2.p.cls === inA1R.cls, false.B)
   inA1v := inA1Rv
   inA1 := inA1R
-  val rvACopies = rvA.load(inA1R.sl.r, inA1R.cls) // for A1's flag lookup
+  // R_k's touched flag of cls, first step: per chunk, from the flags as they are now. The flag write in flight now
+  // (the pixel three ahead's, see A2) is not in them: forwarded as `a1HitEarly`.
+  val rvAChunks = RegNext(VecInit(rvA.chunkBits(rvAChunkSel)))
+  val rvAGroupSel = rvA.loadGroups(inA1R.cls) // for A1's group lookup
+  val a1HitEarly = RegNext(touchLate && touchLateSlot === inA1R.sl.r && touchLateCls === inA1R.cls, false.B)
 
   // ---- A1: the class's row-k entries ----
   // R_k[cls]: the word read in AK; S_k of that node is read now (and seen by A2: the read includes A2's write-back of
@@ -623,10 +632,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val (mHit, mWritten, mRead) = sTab.readParts(1, inA1.sl.s, rnRaw) // S_k[rn]: mWritten if mHit, else mRead
   inA2v := inA1v
   inA2.p := inA1
-  inA2.rvGroups := rvA.groups(rvACopies)
-  // the touched-flag write of the pixel that left A2 last cycle lands only now (see touchLate below): A1's read
-  // does not hold it
-  inA2.hitLate := touchLate && touchLateSlot === inA1.sl.r && touchLateCls === inA1.cls
+  inA2.rvGroups := rvA.groupsOf(rvAChunks, rvAGroupSel)
+  // the touched-flag writes of the two pixels before the one ahead land now and landed a cycle ago (see touchLate
+  // below): A1R's chunk lookup holds neither
+  inA2.hitLate := touchLate && touchLateSlot === inA1.sl.r && touchLateCls === inA1.cls || a1HitEarly
   inA2.rn := rnRaw
   inA2.sPrev := a1SPrev
   // the next top is one of the current top, the node of the pixel in A2 or its rn: compare rn with each now
@@ -674,7 +683,7 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   topFrom := Mux(!inA2v, 0.U, Mux(touchOld, Mux(hitR, 0.U, 2.U), Mux(q.newRun, 1.U, 0.U)))
   // The flag write lands a clock later, from registers: per buffer one enable per group of 2^clsLoBits classes
   // (decided now, so A2's decision drives 2 x 2^(idW - clsLoBits) registers, not 2 x W enables) and the class's
-  // one-hot low part. A1 forwards the write in flight (hitLate), C1 too (c2LateHit). A buffer's clear comes a clock
+  // one-hot low part. A1R and A1 forward the writes in flight (hitLate), C1 too (c2LateHit). A buffer's clear comes a clock
   // late as well, so it keeps its order with the writes: it never meets one of its own buffer (asserted).
   touchLate := inA2v && touchNew; touchLateSlot := aP; touchLateCls := q.cls; touchLateTop := pushTop
   val touchLo = RegNext(inA2.clsLo)
