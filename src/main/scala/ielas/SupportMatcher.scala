@@ -322,10 +322,10 @@ class SupportMatcher(p: ElasParams) extends Module {
   val refDataC0 = ShiftRegister(readC0, SupportMatcher.readLatency - 1)
   // One copy of the references per half of the lanes (SupportMatcher.refCopies): a single copy drives every lane's
   // SADs, and that net, spread over the lanes, was SupportMatcher's worst path at `small` (4.4 ns of routing). The
-  // copies load the same value at the same time, so synthesis would merge them; their reset values differ, which
-  // keeps them apart (the reset value is never used: a sweep reads its references first).
+  // copies load the same value at the same time, so synthesis would merge them; the second has a reset value and the
+  // first none, which keeps them apart (the reset value is never used: a sweep reads its references first).
   private def refCopy(copy: Int): Vec[UInt] =
-    RegInit(VecInit(Seq.fill(2)((if (copy % 2 == 0) BigInt(0) else (BigInt(1) << descBits) - 1).U(descBits.W))))
+    if (copy == 0) Reg(Vec(2, UInt(descBits.W))) else RegInit(VecInit(Seq.fill(2)(((BigInt(1) << descBits) - 1).U(descBits.W))))
   val refLoCopies = Seq.tabulate(SupportMatcher.refCopies(p))(refCopy)
   val refHiCopies = Seq.tabulate(SupportMatcher.refCopies(p))(refCopy)
   for (kind <- 0 until 2; (lo, hi) <- refLoCopies.zip(refHiCopies)) {
