@@ -320,16 +320,10 @@ class SupportMatcher(p: ElasParams) extends Module {
   // previous sweep's last block has left stage A when the new references arrive.
   val refData = ShiftRegister(refRead, SupportMatcher.readLatency - 1, false.B, true.B) // its data is in `data`
   val refDataC0 = ShiftRegister(readC0, SupportMatcher.readLatency - 1)
-  // One copy of the references per half of the lanes (SupportMatcher.refCopies): a single copy drives every lane's
-  // SADs, and that net, spread over the lanes, was SupportMatcher's worst path at `small` (4.4 ns of routing). The
-  // copies load the same value at the same time, so synthesis would merge them; the second has a reset value and the
-  // first none, which keeps them apart (the reset value is never used: a sweep reads its references first).
-  private def refCopy(copy: Int): Vec[UInt] =
-    if (copy == 0) Reg(Vec(2, UInt(descBits.W))) else RegInit(VecInit(Seq.fill(2)(((BigInt(1) << descBits) - 1).U(descBits.W))))
-  val refLoCopies = Seq.tabulate(SupportMatcher.refCopies(p))(refCopy)
-  val refHiCopies = Seq.tabulate(SupportMatcher.refCopies(p))(refCopy)
-  for (kind <- 0 until 2; (lo, hi) <- refLoCopies.zip(refHiCopies)) {
-    when(refData) { lo(kind) := column(data(kind), refDataC0); hi(kind) := column(data(kind), refDataC0 + (2 * r).U) }
+  val refLo = Reg(Vec(2, UInt(descBits.W)))
+  val refHi = Reg(Vec(2, UInt(descBits.W)))
+  for (kind <- 0 until 2) {
+    when(refData) { refLo(kind) := column(data(kind), refDataC0); refHi(kind) := column(data(kind), refDataC0 + (2 * r).U) }
   }
 
   // ---- search pipeline: issue (read) -> A: the SAD parts per lane -> A2: half costs -> B1: lane costs -> B: first
@@ -388,8 +382,6 @@ class SupportMatcher(p: ElasParams) extends Module {
   val aValid = RegNext(s0Valid, false.B)
   val aTag = RegEnable(s0Tag, s0Valid)
   val aParts = (0 until lanes).map { k =>
-    val refLo = refLoCopies(k * refLoCopies.length / lanes)
-    val refHi = refHiCopies(k * refHiCopies.length / lanes)
     val parts = (0 until 2).flatMap { kind =>
       val cur = data(kind)
       val partner = if (k + 2 * r < banks) cur(k + 2 * r) else prevBlock(kind)(k + 2 * r - banks)
@@ -685,10 +677,6 @@ object SupportMatcher {
   def banks(p: ElasParams): Int = p.supportLanesUsed
 
   def wordsPerRow(p: ElasParams): Int = (p.maxWidth + banks(p) - 1) / banks(p)
-
-  /** Copies of the reference registers (2 kinds x columns u - r, u + r x descriptor bits each): two when there are
-    * at least 8 lanes, each serving half of them. */
-  def refCopies(p: ElasParams): Int = if (p.supportLanesUsed >= 8) 2 else 1
 
   /** Bits of a cost: 4 descriptors x 16 bytes x 255, plus room for the "no disparity" value above it. */
   def costBits(p: ElasParams): Int = log2Ceil(4 * p.descriptorBytes * 255 + 2)
