@@ -170,6 +170,21 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     when(incW) { succ2 := Mux(succ2 === (n - 1).U, 0.U, succ2 + 1.U) }
     /** `v(succ)` one cycle old, of the successor held now (read at the successor held next). */
     def regReadSucc[T <: Data](v: Vec[T]): T = RegNext(Mux(incW, v(succ2), v(succ)))
+    /** Copies of cur and succ of one reader's own, held XOR `key` (1 .. 2^w - 1): each reader's slot multiplexers
+      * then hang on registers of their own instead of all on `succ` and `cur` (one net to every field's multiplexer
+      * was the speckle stage's worst path at kitti). Different keys keep synthesis from merging the copies; the
+      * multiplexer's inputs are permuted by the key, so it needs no XOR. */
+    class Keyed(key: Int) {
+      require(key > 0 && key < (1 << w), s"Slot: key $key outside 1 .. ${(1 << w) - 1}")
+      private val k = key.U(w.W)
+      val curK: UInt = RegInit(key.U(w.W))
+      val succK: UInt = RegInit(((1 % n) ^ key).U(w.W))
+      when(incW) { curK := succK; succK := Mux(succK === ((n - 1) ^ key).U, k, ((succK ^ k) + 1.U) ^ k) }
+      assert((curK ^ k) === cur && (succK ^ k) === succ, "speckle: a keyed slot copy differs from its slot")
+      private def keyed[T <: Data](v: Vec[T]): Vec[T] = VecInit(Seq.tabulate(1 << w)(i => v(if ((i ^ key) < n) i ^ key else 0)))
+      /** regRead2 from the copies. */
+      def regRead2[T <: Data](v: Vec[T]): T = Mux(RegNext(incW, false.B), RegNext(keyed(v)(succK)), RegNext(keyed(v)(curK)))
+    }
   }
 
   // ---- memories ----
@@ -874,9 +889,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val dColN = WireDefault(dCol); dCol := dColN
   val dD = new Slot(ND); val dF = new Slot(NF)
   val dSlot = dD.cur
-  // (regRead2: the row change selects after the registers, so the issue does not drive a slot multiplexer)
-  val dVirt = dD.regRead2(metaVirtual); val dFirst = dD.regRead2(metaFirst); val dLast = dD.regRead2(metaLast)
-  val dLen = dD.regRead2(metaLen); val dWd = dD.regRead2(metaW); val dWm1 = dD.regRead2(metaWm1)
+  // (regRead2: the row change selects after the registers, so the issue does not drive a slot multiplexer; each
+  // field from copies of D's slot registers of its own)
+  private def dMeta[T <: Data](v: Vec[T], key: Int): T = new dD.Keyed(key).regRead2(v)
+  val dVirt = dMeta(metaVirtual, 1); val dFirst = dMeta(metaFirst, 2); val dLast = dMeta(metaLast, 3)
+  val dLen = dMeta(metaLen, 4); val dWd = dMeta(metaW, 5); val dWm1 = dMeta(metaWm1, 6)
   // aNext >= dNext + 1, cNext >= dNext + n + 1: a register formed a cycle early, so the issue (and the chain's map
   // read addresses after it) waits for no counter compare. Exact for D's own row change; A's and C's progress of
   // this cycle is seen a cycle late, which only delays a row's start. At a row end it takes the next row's test,
