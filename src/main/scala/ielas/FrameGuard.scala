@@ -55,6 +55,9 @@ class FrameGuard(p: ElasParams) extends Module {
   val y = RegInit(0.U(p.rowBits.W))
   val width = RegInit(FrameSize.minWidth.U(p.colBits.W))
   val height = RegInit(FrameSize.minHeight.U(p.rowBits.W))
+  // width - 1 and height - 1, set with them: the line and frame end tests are compares of registers, no subtractor
+  val lastX = RegInit((FrameSize.minWidth - 1).U(p.colBits.W))
+  val lastY = RegInit((FrameSize.minHeight - 1).U(p.rowBits.W))
   val padLine = RegInit(false.B)  // zero pixels to the end of the line
   val padFrame = RegInit(false.B) // zero pixels to the end of the frame (a SOF beat is held)
   val dropLine = RegInit(false.B) // dropping a long line's extra pixels up to its eol
@@ -94,17 +97,19 @@ class FrameGuard(p: ElasParams) extends Module {
   val starting = WireDefault(false.B)  // this step starts a frame (its aborted beat is still to come)
   val cause = WireDefault(VecInit(Seq.fill(FrameGuard.Cause.count)(false.B)))
 
-  /** Puts out pixel (px, py) of a frame of width w, height h; returns whether it is the line's last. */
-  def emit(left: UInt, right: UInt, px: UInt, py: UInt, w: UInt, h: UInt): Bool = {
-    val lastCol = px === w - 1.U
+  /** Puts out a pixel: the first of a frame, or pixel (x, y) of the current one; returns whether it is the line's last
+    * (never for the first pixel: W >= 32, so no size multiplexer reaches the end tests).
+    */
+  def emit(left: UInt, right: UInt, first: Boolean): Bool = {
+    val lastCol = if (first) false.B else x === lastX
     output.valid := true.B
     output.bits.left := left
     output.bits.right := right
-    output.bits.sof := px === 0.U && py === 0.U
+    output.bits.sof := (if (first) true.B else x === 0.U && y === 0.U)
     output.bits.eol := lastCol
-    x := Mux(lastCol, 0.U, px + 1.U)
-    y := Mux(lastCol, py + 1.U, py)
-    when(lastCol && py === h - 1.U) {
+    x := (if (first) 1.U else Mux(lastCol, 0.U, x + 1.U))
+    y := (if (first) 0.U else Mux(lastCol, y + 1.U, y))
+    when(lastCol && y === lastY) {
       frameEnd := true.B
       active := false.B
       afterFrame := true.B
@@ -116,7 +121,7 @@ class FrameGuard(p: ElasParams) extends Module {
 
   when(canStep) {
     when(padding) {
-      val lastCol = emit(0.U, 0.U, x, y, width, height)
+      val lastCol = emit(0.U, 0.U, first = false)
       when(lastCol) { padLine := false.B }
     }.elsewhen(srcValid) {
       heldValid := false.B
@@ -137,7 +142,9 @@ class FrameGuard(p: ElasParams) extends Module {
           starting := true.B
           width := srcWidth
           height := srcHeight
-          emit(src.left, src.right, 0.U, 0.U, srcWidth, srcHeight) // never the line's last: W >= 32
+          lastX := srcWidth - 1.U
+          lastY := srcHeight - 1.U
+          emit(src.left, src.right, first = true)
           when(src.eol) { padLine := true.B; malformed := true.B; cause(FrameGuard.Cause.shortLine) := true.B }
         }.otherwise {
           active := false.B
@@ -148,7 +155,7 @@ class FrameGuard(p: ElasParams) extends Module {
       }.elsewhen(dropLine) {
         when(src.eol) { dropLine := false.B }
       }.elsewhen(active) {
-        val lastCol = emit(src.left, src.right, x, y, width, height)
+        val lastCol = emit(src.left, src.right, first = false)
         when(src.eol && !lastCol) { padLine := true.B; malformed := true.B; cause(FrameGuard.Cause.shortLine) := true.B }
         when(!src.eol && lastCol) { dropLine := true.B; malformed := true.B; cause(FrameGuard.Cause.longLine) := true.B }
       }.otherwise { // outside any frame

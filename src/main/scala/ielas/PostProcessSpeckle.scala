@@ -484,6 +484,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // B (declared here: A0 reads K_{k-1} while B writes it)
   val bx = RegInit(0.U((idW + 1).W)) // B's node; 0 whenever B is idle
   val bxN = WireDefault(bx); bx := bxN
+  // bx + 2 (mod 2^idW) as a register of its own: P's read address (B0 below) then has no adder before its multiplexer
+  val bxPlus2 = RegInit(2.U(idW.W)) // stepped with bx (B below)
   // row bNext is labelled (aNext >= bNext + 1, or its last pixel is in A2), cNext + 1 >= bNext
   val bCanStart = !bBusy && (dAB.is(_ >= _, 1) || dAB.is(_ === _, 0) && aLastInA2) && dCB.is(_ >= _, -1)
   val bActive = bBusy || bCanStart
@@ -744,9 +746,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val bLastAhead = RegNext(bN <= bx +& 2.U, false.B) // for the next node, if B goes on
   val bLast = Mux(bBusy, bLastAhead, bNAtMostOne)
   val bPx = {
-    val node = Mux(bActive && !bLast, bx(idW - 1, 0) + 2.U, 1.U)
+    assert(bxPlus2 === bx(idW - 1, 0) + 2.U, "speckle: bxPlus2 differs from bx + 2")
+    val node = Mux(bActive && !bLast, bxPlus2, 1.U)
     val slot = Mux(bActive && bLast, b2.succ, b2.cur)
-    val readAddr = Mux(bActive, Mux(bLast, addr(b2.succ, 1.U), addr(b2.cur, bx(idW - 1, 0) + 2.U)), addr(b2.cur, 1.U))
+    val readAddr = Mux(bActive, Mux(bLast, addr(b2.succ, 1.U), addr(b2.cur, bxPlus2)), addr(b2.cur, 1.U))
     val word = RegNext(pMem.read(readAddr))
     val hitA = RegNext(pwEn && pwSlot === slot && pwNode === node, false.B)
     val dataA = RegNext(pwData)
@@ -771,8 +774,9 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   bComputed := Mux(b2Zero, 0.U, Mux(b2Self, b2Px, kWordB))
   when(b2v) { kTab.write(b2Slot, b2x, bComputed) }
   when(bActive) {
-    when(bLast) { bBusy := false.B; bxN := 0.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc() }
-      .otherwise { bBusy := true.B; bxN := bx + 1.U }
+    when(bLast) {
+      bBusy := false.B; bxN := 0.U; bxPlus2 := 2.U; bNext := bNext + 1.U; bIncW := true.B; bD.inc(); b2.inc(); b3.inc()
+    }.otherwise { bBusy := true.B; bxN := bx + 1.U; bxPlus2 := bxPlus2 + 1.U }
   }
 
   // ===== C: forward map F_k for the nodes of row k - 1, in three steps =====
