@@ -372,6 +372,14 @@ class DenseMatcher(p: ElasParams) extends Module {
   // as a register formed from those three's next values (below), so the handshake starts at flip-flops
   val aReady = RegInit(false.B)
   val aRowEnd = RegInit(false.B) // a.u = width - 1, registered with a
+  // a's cell width w1 = x1 - x0 (step, or the last cell's): registered with a, and formed again from a while it
+  // waits (a frame's first pixel may enter A before lastCell settles), so the left owner's product w1 * up starts
+  // and ends at flip-flops (the compare and select in front of the multiplier were the whole top's critical path)
+  val aCellWidth = Reg(UInt(inW.W))
+  val lastCellX0 = RegNext(lastCell * step.U)
+  val lastCellWidth = RegNext(Mux(width - 1.U - lastCellX0 < step.U, width - 1.U - lastCellX0, step.U))
+  def cellWidth(cu: UInt): UInt = Mux(cu === lastCell, lastCellWidth, step.U)(inW - 1, 0)
+  aCellWidth := cellWidth(a.cu) // (a pixel entering A overrides this below)
   // The handshake (adv, upAdv, slot) and what it enables read flags kept as registers (credits =/= 0, the last
   // candidate group, flushing, the primer lag done) rather than counter compares: it reaches every register of A..C.
   val creditOk = RegInit(true.B) // credits =/= 0
@@ -458,6 +466,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       loadA := true.B
       aFirst := genFirst
       aRowEnd := rowEnd(gen)
+      aCellWidth := cellWidth(gen.cu)
       aGridHit := genGridHit
       aGridSel := genGridSel
       aShift := cellAt(gen.cu + (K - 1).U, gen.shiftX0)
@@ -653,8 +662,6 @@ class DenseMatcher(p: ElasParams) extends Module {
   // with g = x1 (h - vIn) + x0 vIn, and no higher-indexed cell reaches u (its e is above u h; h >= 1 in every row), so
   // the owner is (cu, t = 1) when u h >= g, else (cu, 0): the highest-indexed covering triangle of the general rule.
   // With u = x0 + uIn and w1 = x1 - x0, u h >= g is uIn h >= w1 (h - vIn): two products of step-sized numbers.
-  val lastCellX0 = RegNext(lastCell * step.U)
-  val lastCellWidth = RegNext(Mux(width - 1.U - lastCellX0 < step.U, width - 1.U - lastCellX0, step.U))
   class StageA1 extends Bundle {
     val px = new Pixel
     val cu = UInt(cellW.W)
@@ -667,7 +674,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     r.px := aPixel
     r.cu := a.cu
     r.uInH := a.uIn * aH
-    r.w1Up := Mux(a.cu === lastCell, lastCellWidth, step.U)(inW - 1, 0) * aUp
+    r.w1Up := aCellWidth * aUp
     r.covers := VecInit((0 until K).flatMap { j =>
       val s = win(j)
       (0 until 2).map(t => s.valid && s.lo(t) <= uh && uh <= s.hi(t))

@@ -166,7 +166,7 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
   }
   val lrcheck: DecoupledIO[Framed[DisparityPair]] = if (!needs(Stage.LrCheck)) null else {
     val m = Module(new LrCheck(p))
-    m.io.in <> dense
+    m.io.in <> RegisterSlice(dense) // (the dense output queue's count reached LrCheck's memory addresses: 7 LUT levels)
     m.io.out
   }
   val post: DecoupledIO[Framed[SInt]] = if (!needs(Stage.Post)) null else {
