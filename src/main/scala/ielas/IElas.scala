@@ -171,12 +171,13 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
   }
   val post: DecoupledIO[Framed[SInt]] = if (!needs(Stage.Post)) null else {
     val m = Module(new PostProcess(p))
-    m.io.in.valid := lrcheck.valid
-    m.io.in.bits.data := lrcheck.bits.data.left // only the left view is post-processed and put out
-    m.io.in.bits.sof := lrcheck.bits.sof
-    m.io.in.bits.eol := lrcheck.bits.eol
-    m.io.in.bits.eof := lrcheck.bits.eof
-    lrcheck.ready := m.io.in.ready
+    val in = RegisterSlice(lrcheck) // (the speckle stage's take reached LrCheck's move register: 7 LUT levels)
+    m.io.in.valid := in.valid
+    m.io.in.bits.data := in.bits.data.left // only the left view is post-processed and put out
+    m.io.in.bits.sof := in.bits.sof
+    m.io.in.bits.eol := in.bits.eol
+    m.io.in.bits.eof := in.bits.eof
+    in.ready := m.io.in.ready
     sized(m.io.in.bits.sof, m.io.in.fire, m.io.frameWidth, m.io.frameHeight)
     m.io.out
   }
