@@ -107,8 +107,12 @@ class DenseMatcher(p: ElasParams) extends Module {
   })
 
   // ---------------------------------------------------------------- frame parameters (sampled at the desc sof)
-  val width = RegInit(p.maxWidth.U(colW.W))
-  val height = RegInit(p.maxHeight.U(rowW.W))
+  // the size W x H minus 1 and 2: the row- and frame-end compares start at flip-flops (a subtractor in front of the
+  // pixel generator's row-end compare was the whole top's critical path)
+  val widthM1 = RegInit((p.maxWidth - 1).U(colW.W))
+  val heightM1 = RegInit((p.maxHeight - 1).U(rowW.W))
+  val widthM2 = RegInit((p.maxWidth - 2).U(colW.W))
+  val heightM2 = RegInit((p.maxHeight - 2).U(rowW.W))
   val lastCell = RegInit(0.U(cellW.W)) //    Lw - 2 = (W - 2) / step
   val lastCellRow = RegInit(0.U(cellRowW.W)) // Lh - 2 = (H - 2) / step
   val inFp = RegInit(false.B) // frame parity of the descriptor stream (toggles at each sof)
@@ -236,7 +240,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     c.exists := cc <= lastCell
     c.x0 := x0
     val x1raw = c.x0 +& step.U
-    c.x1 := Mux(x1raw > width - 1.U, width - 1.U, x1raw)
+    c.x1 := Mux(x1raw > widthM1, widthM1, x1raw)
     c
   }
   def cellCuts(at: CellAt, corners: Vec[UInt]): Cuts = {
@@ -300,18 +304,17 @@ class DenseMatcher(p: ElasParams) extends Module {
     val shiftX0 = UInt((colW + 2).W) // (cu + K - 1) * step (mod 2^(colW + 2)): the column of the cell a shift brings in
   }
   private val shiftX0First = (((K - 1) * step) % (1 << (colW + 2))).U((colW + 2).W) // shiftX0 at u = 0
-  def rowEnd(q: Pos): Bool = q.u === width - 1.U
-  def frameEnd(q: Pos): Bool = rowEnd(q) && q.v === height - 1.U
   def nextCellRow(q: Pos): Bool = q.vIn === (step - 1).U && q.cr < lastCellRow
   def nextCellCol(q: Pos): Bool = q.uIn === (step - 1).U && q.cu < lastCell
-  /** The pixel after q. `below` (q.cr < lastCellRow) and the heights of cell rows q.cr and q.cr + 1 come in as
-    * registers (see `genBelow`), so the cell-row compares stay off the generator's per-pixel path.
+  /** The pixel after q. Its row end `end` (q.u = W - 1), `below` (q.cr < lastCellRow) and the heights of cell rows
+    * q.cr and q.cr + 1 come in as registers (see `genRowEnd`, `genBelow`), so no compare sits on the generator's
+    * per-pixel path.
     */
-  def advance(q: Pos, below: Bool, hCur: UInt, hNext: UInt): Pos = {
+  def advance(q: Pos, end: Bool, below: Bool, hCur: UInt, hNext: UInt): Pos = {
     val n = Wire(new Pos)
     val nextCr = q.vIn === (step - 1).U && below
     n := q
-    when(rowEnd(q)) {
+    when(end) {
       n.u := 0.U; n.cu := 0.U; n.uIn := 0.U; n.gx := 0.U; n.uG := 0.U
       n.shiftX0 := shiftX0First
       n.v := q.v + 1.U
@@ -327,18 +330,18 @@ class DenseMatcher(p: ElasParams) extends Module {
       when(q.uG === (G - 1).U) { n.gx := q.gx + 1.U; n.uG := 0.U }.otherwise { n.uG := q.uG + 1.U }
     }
     // h - vIn: a new cell row starts at vIn = 0; otherwise h stays (one height per cell row) and vIn counts up
-    n.up := Mux(rowEnd(q), Mux(nextCr, n.h, q.up - 1.U), q.up)
+    n.up := Mux(end, Mux(nextCr, n.h, q.up - 1.U), q.up)
     n
   }
   // The last cell row's height min(step, H - 1 - y0) (every other cell row is step high), for the pixel generator.
   // (the products by step are registers of their own: a constant multiply is a DSP, kept off the compares)
   val lastCellRowY0 = RegNext(lastCellRow * step.U)
-  val lastRowH = RegNext(Mux(height - 1.U - lastCellRowY0 < step.U, height - 1.U - lastCellRowY0, step.U))
+  val lastRowH = RegNext(Mux(heightM1 - lastCellRowY0 < step.U, heightM1 - lastCellRowY0, step.U))
   /** Row geometry of a cell row starting at image row y0 (= cr x step mod 2^(rowW + 2), from a counter), at image
     * row offset vIn: (h, up = y1 - v, down = v - y0). */
   def rowGeometry(y0: UInt, vIn: UInt): (UInt, UInt, UInt) = {
     val y1raw = y0 +& step.U
-    val y1 = Mux(y1raw > height - 1.U, height - 1.U, y1raw)
+    val y1 = Mux(y1raw > heightM1, heightM1, y1raw)
     val h = (y1 - y0)(inW - 1, 0)
     (h, (h - vIn)(inW - 1, 0), vIn)
   }
@@ -371,13 +374,13 @@ class DenseMatcher(p: ElasParams) extends Module {
   // only a row's first pixel waits (for its primer and grid row): aReady = !aFirst || (shadowFull && aGridHit), kept
   // as a register formed from those three's next values (below), so the handshake starts at flip-flops
   val aReady = RegInit(false.B)
-  val aRowEnd = RegInit(false.B) // a.u = width - 1, registered with a
+  val aRowEnd = RegInit(false.B) // a.u = W - 1, registered with a
   // a's cell width w1 = x1 - x0 (step, or the last cell's): registered with a, and formed again from a while it
   // waits (a frame's first pixel may enter A before lastCell settles), so the left owner's product w1 * up starts
   // and ends at flip-flops (the compare and select in front of the multiplier were the whole top's critical path)
   val aCellWidth = Reg(UInt(inW.W))
   val lastCellX0 = RegNext(lastCell * step.U)
-  val lastCellWidth = RegNext(Mux(width - 1.U - lastCellX0 < step.U, width - 1.U - lastCellX0, step.U))
+  val lastCellWidth = RegNext(Mux(widthM1 - lastCellX0 < step.U, widthM1 - lastCellX0, step.U))
   def cellWidth(cu: UInt): UInt = Mux(cu === lastCell, lastCellWidth, step.U)(inW - 1, 0)
   aCellWidth := cellWidth(a.cu) // (a pixel entering A overrides this below)
   // The handshake (adv, upAdv, slot) and what it enables read flags kept as registers (credits =/= 0, the last
@@ -421,6 +424,9 @@ class DenseMatcher(p: ElasParams) extends Module {
   // pixel generator: pixel P = n - dispMax enters stage A with stream position n
   val gen = Reg(new Pos)
   val genFirst = RegInit(false.B) // gen.u = 0
+  val genRowEnd = RegInit(false.B) // gen.u = W - 1: the pixel after gen.u = W - 2 (W >= 32, so never the first)
+  // gen's frame end: gen.v changes only at a row end, and the next row end is W >= 32 pixels later
+  val genLastRow = RegNext(gen.v === heightM1)
   val (genGridHit, genGridSel) = bankOf(gridFull, gridTag, gen.fp, gen.gy)
   val loadA = WireDefault(false.B) // gen enters stage A this cycle
   val genActive = RegInit(false.B)
@@ -446,13 +452,16 @@ class DenseMatcher(p: ElasParams) extends Module {
     when(slotSof) {
       lag := 1.U
       lagDone := (D == 1).B
-      width := io.frameWidth
-      height := io.frameHeight
+      widthM1 := io.frameWidth - 1.U
+      heightM1 := io.frameHeight - 1.U
+      widthM2 := io.frameWidth - 2.U
+      heightM2 := io.frameHeight - 2.U
       inFp := !inFp
       sofPending := true.B
       genActive := true.B
       gen := 0.U.asTypeOf(new Pos)
       genFirst := true.B
+      genRowEnd := false.B
       gen.shiftX0 := shiftX0First
       gen.fp := !inFp
       val firstRowH = Mux(io.frameHeight - 1.U < step.U, io.frameHeight - 1.U, step.U) // cell row 0: min(step, H - 1)
@@ -465,17 +474,21 @@ class DenseMatcher(p: ElasParams) extends Module {
       a := gen
       loadA := true.B
       aFirst := genFirst
-      aRowEnd := rowEnd(gen)
+      aRowEnd := genRowEnd
       aCellWidth := cellWidth(gen.cu)
       aGridHit := genGridHit
       aGridSel := genGridSel
       aShift := cellAt(gen.cu + (K - 1).U, gen.shiftX0)
       aAddr := wp - D.U
-      gen := advance(gen, genBelow, genHCur, genHNext)
-      genFirst := rowEnd(gen)
-      when(frameEnd(gen)) { genActive := false.B }
+      gen := advance(gen, genRowEnd, genBelow, genHCur, genHNext)
+      genFirst := genRowEnd
+      genRowEnd := !genRowEnd && gen.u === widthM2
+      when(genRowEnd && genLastRow) { genActive := false.B }
     }
   }
+  assert(!genActive || genRowEnd === (gen.u === widthM1), "DenseMatcher: the generator's row-end register is wrong")
+  assert(!genActive || !genRowEnd || genLastRow === (gen.v === heightM1),
+    "DenseMatcher: the generator's last-row register is wrong")
   // (slot implies upAdv) a pixel enters A in a slot past the primer lag; otherwise A empties when the pipeline moves
   val aValidNext = Mux(upAdv, slot && !slotSof && lagDone && genActive, aValid)
   aValid := aValidNext
@@ -486,8 +499,6 @@ class DenseMatcher(p: ElasParams) extends Module {
   // starts and ends at flip-flops. The primer starts once they are there (`sizeReady`, three cycles after sof).
   val sizeStep1 = RegNext(slot && slotSof, false.B)
   val sizeStep2 = RegNext(sizeStep1, false.B)
-  val widthM2 = RegEnable(width - 2.U, sizeStep1)
-  val heightM2 = RegEnable(height - 2.U, sizeStep1)
   when(sizeStep2) {
     lastCell := DenseMatcher.divConst(widthM2, step, colW)
     lastCellRow := DenseMatcher.divConst(heightM2, step, rowW)
@@ -536,7 +547,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       pIssued := true.B
       pJ := 0.U
       pX0 := 0.U
-      when(pRow.v === height - 1.U) {
+      when(pRow.v === heightM1) {
         pActive := false.B
         pWaitFrame := true.B
       }.otherwise {
@@ -626,23 +637,23 @@ class DenseMatcher(p: ElasParams) extends Module {
   val aPixel = Wire(new Pixel)
   aPixel.u := a.u
   aPixel.v := a.v
-  aPixel.inside := a.u >= m.U && a.u +& m.U <= width - 1.U && a.v >= m.U && a.v +& m.U <= height - 1.U
+  aPixel.inside := a.u >= m.U && a.u +& m.U <= widthM1 && a.v >= m.U && a.v +& m.U <= heightM1
   aPixel.planeSel := planeSel
-  aPixel.release := rowEnd(a) && (frameEnd(a) || nextCellRow(a))
+  aPixel.release := aRowEnd && (a.v === heightM1 || nextCellRow(a))
   aPixel.first := aFirst
   aPixel.fallback := Cat(lastCell, 1.U(1.W))
   aPixel.carry.addr := aAddr
   aPixel.carry.refs := aRef
   aPixel.carry.reach(0) := a.u.zext - m.S //                 left: target u - d needs u - d >= m
-  aPixel.carry.reach(1) := width.zext - 1.S - m.S - a.u.zext // right: target u + d needs u + d <= W - 1 - m
+  aPixel.carry.reach(1) := widthM1.zext - m.S - a.u.zext // right: target u + d needs u + d <= W - 1 - m
   aPixel.carry.grid(0) := gridCell.left
   aPixel.carry.grid(1) := gridCell.right
   aPixel.carry.sof := a.u === 0.U && a.v === 0.U
-  aPixel.carry.eol := rowEnd(a)
-  aPixel.carry.eof := frameEnd(a)
+  aPixel.carry.eol := aRowEnd
+  aPixel.carry.eof := aRowEnd && a.v === heightM1
   // release the grid row bank after its last pixel (its read is in stage A)
-  when(aFire && rowEnd(a)) {
-    when(frameEnd(a) || a.vG === (G - 1).U) { gridRelease(aGridSel) := true.B }
+  when(aFire && aRowEnd) {
+    when(aPixel.carry.eof || a.vG === (G - 1).U) { gridRelease(aGridSel) := true.B }
   }
 
   /** A register step of the upstream pipeline (stages A1..B3): it takes the valid bit of the step before it whenever
