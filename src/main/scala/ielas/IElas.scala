@@ -146,7 +146,7 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
   }
   val planes: DecoupledIO[Framed[PlaneCell]] = if (!needs(Stage.Planes)) null else {
     val m = Module(new Planes(p))
-    m.io.in <> RegisterSlice(if (latePath) Queue(RegisterSlice(interp), IElas.latticeQueueEntries(p), useSyncReadMem = true)
+    m.io.in <> RegisterSlice(if (latePath) BlockQueue(RegisterSlice(interp), IElas.latticeQueueEntries(p))
       else interp)
     sized(m.io.in.bits.sof, m.io.in.fire, m.io.frameWidth, m.io.frameHeight)
     m.io.out
@@ -155,12 +155,12 @@ class Pipeline(p: ElasParams, last: Stage, in: DecoupledIO[PixelPair], frameWidt
   // ---- late path ----
   val dense: DecoupledIO[Framed[DisparityPair]] = if (!latePath) null else {
     val lateDesc = Module(new Descriptor(p))
-    lateDesc.io.in <> RegisterSlice(Queue(pixelFork.io.out(1), IElas.bandEntries(p), useSyncReadMem = true))
+    lateDesc.io.in <> RegisterSlice(BlockQueue(pixelFork.io.out(1), IElas.bandEntries(p)))
     sized(lateDesc.io.in.bits.sof, lateDesc.io.in.fire, lateDesc.io.frameWidth, lateDesc.io.frameHeight)
     val m = Module(new DenseMatcher(p))
     m.io.desc <> RegisterSlice(lateDesc.io.out)
     m.io.planes <> planes
-    m.io.grid <> RegisterSlice(Queue(RegisterSlice(grid), IElas.gridQueueEntries(p), useSyncReadMem = true))
+    m.io.grid <> RegisterSlice(BlockQueue(RegisterSlice(grid), IElas.gridQueueEntries(p)))
     sized(m.io.desc.bits.sof, m.io.desc.fire, m.io.frameWidth, m.io.frameHeight)
     m.io.out
   }

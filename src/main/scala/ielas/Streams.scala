@@ -150,6 +150,57 @@ object RegisterSlice {
   }
 }
 
+/** A first-in first-out queue of `entries` beats in one block RAM whose read address is a register. (Chisel's
+  * `Queue` with a synchronous memory reads at the next dequeue pointer, chosen by the dequeue handshake and the
+  * pointers' compare: that chain ran into the pixel band's block-RAM addresses, the whole top's worst path.) The
+  * memory is read at `readPtr` every clock; a beat is taken out of it (`issue`) only while the output queue behind it
+  * has room for it, counting the beat still in the read, so three registered entries sustain one beat per clock.
+  * `in.ready` is a register (the memory is not full); latency is three clocks. Holds `entries` + 3 beats.
+  */
+class BlockQueue[T <: Data](gen: T, val entries: Int) extends Module {
+  require(entries >= 2, s"BlockQueue: entries = $entries (legal: 2 or more)")
+  val io = IO(new Bundle {
+    val in = Flipped(Decoupled(gen))
+    val out = Decoupled(gen)
+  })
+  override def desiredName = s"BlockQueue$entries"
+  private val ptrW = log2Ceil(entries)
+  private def wrapInc(ptr: UInt): UInt = Mux(ptr === (entries - 1).U, 0.U, ptr + 1.U)
+  val mem = SyncReadMem(entries, gen)
+  val writePtr = RegInit(0.U(ptrW.W))
+  val readPtr = RegInit(0.U(ptrW.W))
+  val stored = RegInit(0.U(log2Ceil(entries + 1).W)) // beats in the memory
+  val nonEmpty = RegInit(false.B) //                     stored =/= 0
+  val full = RegInit(false.B) //                         stored === entries
+  val output = Module(new Queue(gen, 3))
+  val owed = RegInit(0.U(2.W)) // beats in the output queue or in the read (<= 3)
+  val issue = nonEmpty && owed < 3.U // the beat at readPtr goes to the output queue (next clock)
+  val inRead = RegNext(issue, false.B)
+  io.in.ready := !full
+  when(io.in.fire) {
+    mem.write(writePtr, io.in.bits)
+    writePtr := wrapInc(writePtr)
+  }
+  when(issue) { readPtr := wrapInc(readPtr) }
+  val storedNext = stored + io.in.fire.asUInt - issue.asUInt
+  stored := storedNext
+  nonEmpty := storedNext =/= 0.U
+  full := storedNext === entries.U
+  owed := owed + issue.asUInt - io.out.fire.asUInt
+  output.io.enq.valid := inRead
+  output.io.enq.bits := mem.read(readPtr)
+  assert(!inRead || output.io.enq.ready, "BlockQueue: output queue full")
+  io.out <> output.io.deq
+}
+
+object BlockQueue {
+  def apply[T <: Data](in: DecoupledIO[T], entries: Int): DecoupledIO[T] = {
+    val m = Module(new BlockQueue(chiselTypeOf(in.bits), entries))
+    m.io.in <> in
+    m.io.out
+  }
+}
+
 /** Hands every beat of `in` to all `n` outputs. Each output may take it in a different cycle; the beat leaves `in`
   * once every output has taken it, so a stalled consumer holds back only the beats it has not yet seen.
   */
