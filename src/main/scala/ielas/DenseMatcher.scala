@@ -494,8 +494,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   aValid := aValidNext
   val aFlow = new Flow(aValid, aValidNext)
   val aFire = aFlow.moves // stage A's pixel moves on this cycle (upAdv && aValid, a register)
-  // The last cell column and row follow from the frame size registered at sof, in two more register steps (the size
-  // minus 2, then its product by the reciprocal): the divisions stay off the handshake paths, and each multiplier
+  // The last cell column and row follow from the size minus 2 registered at sof, two register steps later (the
+  // product by the reciprocal waits one step more): the divisions stay off the handshake paths, and each multiplier
   // starts and ends at flip-flops. The primer starts once they are there (`sizeReady`, three cycles after sof).
   val sizeStep1 = RegNext(slot && slotSof, false.B)
   val sizeStep2 = RegNext(sizeStep1, false.B)
