@@ -20,17 +20,7 @@ class BlockQueueSpec extends AnyFlatSpec {
       val rnd = new Random(seed + entries)
       simulate(new BlockQueue(UInt(16.W), entries), tmpDir(s"BlockQueueSpec$entries")) { dut =>
         reset(dut)
-        for ((traffic, n) <- Seq((choppy, 4000), (Traffic(0.6, 0.1), 1000), (Traffic(0.1, 0.6), 1000), (noStall, 2000))) {
-          val values = Seq.fill(n)(BigInt(16, rnd))
-          val got = Array.fill[BigInt](n)(-1)
-          val cycles = StreamTester.run[UInt, UInt, BigInt, BigInt](dut.clock, dut.io.in, values.iterator,
-            (b, v) => poke(b, v), dut.io.out, n, b => peek(b), (i, v) => got(i.toInt) = v, traffic, rnd, 20L * n + 100,
-            s"queue $traffic")
-          val wrong = (0 until n).filter(i => got(i) != values(i))
-          assert(wrong.isEmpty, s"$traffic: ${wrong.size} of $n beats wrong, first at ${wrong.headOption}")
-          if (traffic == noStall) assert(cycles <= n + 4, s"no stalls: $n beats took $cycles cycles")
-          step(dut.clock, 5) // drain: the run stops once the last beat has left
-        }
+        checkPassThrough(dut.clock, dut.io.in, dut.io.out, rnd, noStallSlack = 4, drain = 5, "queue")
         // capacity: with the output stalled, every one of `entries` beats is taken
         poke(dut.io.out.ready, false)
         poke(dut.io.in.valid, true)

@@ -19,17 +19,7 @@ class RegisterSliceSpec extends AnyFlatSpec {
     val rnd = new Random(seed)
     simulate(new RegisterSlice(UInt(16.W)), tmpDir("RegisterSliceSpec")) { dut =>
       reset(dut)
-      for ((traffic, n) <- Seq((choppy, 4000), (Traffic(0.6, 0.1), 1000), (Traffic(0.1, 0.6), 1000), (noStall, 2000))) {
-        val values = Seq.fill(n)(BigInt(16, rnd))
-        val got = Array.fill[BigInt](n)(-1)
-        val cycles = StreamTester.run[UInt, UInt, BigInt, BigInt](dut.clock, dut.io.in, values.iterator,
-          (b, v) => poke(b, v), dut.io.out, n, b => peek(b), (i, v) => got(i.toInt) = v, traffic, rnd, 20L * n + 100,
-          s"slice $traffic")
-        val wrong = (0 until n).filter(i => got(i) != values(i))
-        assert(wrong.isEmpty, s"$traffic: ${wrong.size} of $n beats wrong, first at ${wrong.headOption}")
-        if (traffic == noStall) assert(cycles <= n + 2, s"no stalls: $n beats took $cycles cycles")
-        step(dut.clock, 3) // drain: the run stops once the last beat has left
-      }
+      checkPassThrough(dut.clock, dut.io.in, dut.io.out, rnd, noStallSlack = 2, drain = 3, "slice")
       // registered handshakes: fill the slice (output stalled), then toggle the other side within one cycle
       poke(dut.io.out.ready, false)
       poke(dut.io.in.valid, true)

@@ -176,6 +176,23 @@ object StreamTester {
     cycles
   }
 
+  /** A stream that hands its input on unchanged (a slice, a queue): seeded random 16-bit values under choppy, mostly
+    * gappy, mostly stalled and stall-free traffic must come out complete and in order (expected: the input itself),
+    * and without stalls within `n + noStallSlack` cycles. `drain` clocks follow each run (it stops at the last beat).
+    */
+  def checkPassThrough(clock: Clock, in: DecoupledIO[UInt], out: DecoupledIO[UInt], rnd: Random, noStallSlack: Int,
+      drain: Int, what: String): Unit =
+    for ((traffic, n) <- Seq((choppy, 4000), (Traffic(0.6, 0.1), 1000), (Traffic(0.1, 0.6), 1000), (noStall, 2000))) {
+      val values = Seq.fill(n)(BigInt(16, rnd))
+      val got = Array.fill[BigInt](n)(-1)
+      val cycles = run[UInt, UInt, BigInt, BigInt](clock, in, values.iterator, (b, v) => poke(b, v), out, n,
+        b => peek(b), (i, v) => got(i.toInt) = v, traffic, rnd, 20L * n + 100, s"$what $traffic")
+      val wrong = (0 until n).filter(i => got(i) != values(i))
+      assert(wrong.isEmpty, s"$what $traffic: ${wrong.size} of $n beats wrong, first at ${wrong.headOption}")
+      if (traffic == noStall) assert(cycles <= n + noStallSlack, s"$what, no stalls: $n beats took $cycles cycles")
+      step(clock, drain)
+    }
+
   /** One input port of [[runFeeds]]: its beats, how to poke one, and its own seeded gap probability and generator,
     * so each input of a multi-input stage sees an independent random gap pattern.
     */
