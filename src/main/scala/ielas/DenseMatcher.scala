@@ -45,6 +45,7 @@ import chisel3.util._
   * '''Row banks''' (memories, combinational read ports; written by the loaders, tagged with frame parity and row):
   *   corner banks = 2 x (latticeColsMax - 1) x 4 dispBits          (one cell row in use, the next loading)
   *   plane banks  = 2 views x 2 x (latticeColsMax - 1) x 2 (3 x 32 + colBits + rowBits + 3)
+  *                  (anchors and coefficients in separate memories, read at stages A3 and B)
   *   grid banks  = 2 x gridColsMax x 2 storedDisparities x (dispBits + 1) (one grid row in use, the next loading)
   * The second grid row is there so that a grid row change costs no cycle (the next row loads while the current
   * one is read); with one bank the pixel stream would wait gridColsMax cycles every gridSize rows.
@@ -125,8 +126,25 @@ class DenseMatcher(p: ElasParams) extends Module {
   // Plane banks are split by reader: the corners feed the rasteriser (primer and window shift), each view's planes
   // feed that view's plane read, so every memory has at most two combinational read ports.
   val cornerBanks = Seq.fill(2)(Mem(cellsMax, Vec(4, UInt(p.dispBits.W))))
-  val planeBanksL = Seq.fill(2)(Mem(cellsMax, Vec(2, new PlaneCoeffs(p))))
-  val planeBanksR = Seq.fill(2)(Mem(cellsMax, Vec(2, new PlaneCoeffs(p))))
+  // A plane's anchor and its coefficients are kept apart: the anchor is read a stage ahead (A3), so the offsets
+  // u - anchorU, v - anchorV subtract registers; read with the coefficients at B, the read ran into those
+  // subtracts (the dense matcher's worst path at small-c4).
+  class Anchor extends Bundle {
+    val u = SInt((p.colBits + 1).W)
+    val v = UInt(p.rowBits.W)
+  }
+  class Coeffs extends Bundle {
+    val a = SInt(32.W)
+    val b = SInt(32.W)
+    val c = SInt(32.W)
+    val valid = Bool()
+  }
+  def anchorOf(pl: PlaneCoeffs): Anchor = { val r = Wire(new Anchor); r.u := pl.anchorU; r.v := pl.anchorV; r }
+  def coeffsOf(pl: PlaneCoeffs): Coeffs = {
+    val r = Wire(new Coeffs); r.a := pl.a; r.b := pl.b; r.c := pl.c; r.valid := pl.valid; r
+  }
+  val anchorBanks = Seq.fill(2, 2)(Mem(cellsMax, Vec(2, new Anchor))) // (view)(bank)
+  val coeffBanks = Seq.fill(2, 2)(Mem(cellsMax, Vec(2, new Coeffs)))
   val planeFull = RegInit(VecInit(Seq.fill(2)(false.B)))
   val planeTag = Reg(Vec(2, new Tag))
   val gridBanks = Seq.fill(2)(Mem(p.gridColsMax, new GridCellPair(p)))
@@ -186,8 +204,10 @@ class DenseMatcher(p: ElasParams) extends Module {
   val gridRelease = WireDefault(VecInit(Seq.fill(2)(false.B)))
   loader(io.planes, planeFull, planeTag, cellsMax, planeRelease) { (i, addr, cell) =>
     cornerBanks(i).write(addr, cell.corners)
-    planeBanksL(i).write(addr, cell.left)
-    planeBanksR(i).write(addr, cell.right)
+    for ((planes, view) <- Seq(cell.left, cell.right).zipWithIndex) {
+      anchorBanks(view)(i).write(addr, VecInit(planes.map(anchorOf)))
+      coeffBanks(view)(i).write(addr, VecInit(planes.map(coeffsOf)))
+    }
   }
   // The grid banks' write a clock late: stage A reads a row only through aGridHit, a register formed from the banks'
   // `full` flags, so its first read of a row is a clock after `full` is set, when the last write has landed.
@@ -740,23 +760,28 @@ class DenseMatcher(p: ElasParams) extends Module {
   val rightOwner = Mux(a3.covered, a3.coveredOwner, Mux(a3.px.first, a3.px.fallback, carry))
   when(a3Flow.moves) { carry := rightOwner }
 
+  /** Triangle `owner` (cell * 2 + t) of the plane row bank `sel` in one view's banks. */
+  def ownerRead[T <: Data](banks: Seq[MemBase[Vec[T]]], sel: UInt, owner: UInt): T = {
+    val both = readBank(banks, sel, owner >> 1, cellsMax)
+    Mux(owner(0), both(1), both(0))
+  }
   class StageB extends Bundle {
     val px = new Pixel
     val owner = Vec(2, UInt((cellW + 1).W))
+    val anchor = Vec(2, new Anchor)
   }
   val (bFlow, b) = upStage(new StageB, a3Flow) { r =>
     r.px := a3.px
-    r.owner(0) := a3.leftOwner
-    r.owner(1) := rightOwner
+    for ((owner, view) <- Seq(a3.leftOwner, rightOwner).zipWithIndex) {
+      r.owner(view) := owner
+      r.anchor(view) := ownerRead(anchorBanks(view), a3.px.planeSel, owner)
+    }
   }
   // the left view's targets: descR of the pixels that have passed stage B
   when(bFlow.moves) { ringR.foreach(_.write(b.px.carry.addr, b.px.carry.refs(1))) }
   // the plane row bank is free once the cell row's last pixel has read it (stage B)
   when(bFlow.moves && b.px.release) { planeRelease(b.px.planeSel) := true.B }
-  val ownerPlanes = Seq(planeBanksL, planeBanksR).zipWithIndex.map { case (banks, view) =>
-    val planes = readBank(banks, b.px.planeSel, b.owner(view) >> 1, cellsMax)
-    Mux(b.owner(view)(0), planes(1), planes(0))
-  }
+  val ownerCoeffs = (0 until 2).map(view => ownerRead(coeffBanks(view), b.px.planeSel, b.owner(view)))
 
   // ---------------------------------------------------------------- stages B1..B3: texture, plane value and range
   // d_p = (c + a (u - anchorU) + b (v - anchorV) + 2^15) >> 16 in three register steps (offsets, products, sum), the
@@ -769,16 +794,16 @@ class DenseMatcher(p: ElasParams) extends Module {
     val texture = Vec(2, Vec(sadParts, UInt(DescriptorSad.bits(p.descriptorBytes).W))) // quarter SADs vs flat
     val du = Vec(2, SInt((colW + 2).W))
     val dv = Vec(2, SInt((rowW + 2).W))
-    val plane = Vec(2, new PlaneCoeffs(p))
+    val plane = Vec(2, new Coeffs)
   }
   val (b1Flow, b1) = upStage(new StageB1, bFlow) { r =>
     r.carry := b.px.carry
     r.inside := b.px.inside
     for (view <- 0 until 2) {
       r.texture(view) := VecInit(partSads(b.px.carry.refs(view), flat))
-      r.du(view) := b.px.u.zext - ownerPlanes(view).anchorU
-      r.dv(view) := b.px.v.zext - ownerPlanes(view).anchorV.zext
-      r.plane(view) := ownerPlanes(view)
+      r.du(view) := b.px.u.zext - b.anchor(view).u
+      r.dv(view) := b.px.v.zext - b.anchor(view).v.zext
+      r.plane(view) := ownerCoeffs(view)
     }
   }
   private val listBlock = 6 // grid entries per block of the list-end search (one LUT6 per block OR)
@@ -1137,7 +1162,6 @@ object DenseMatcher {
   /** Bits of a scaled cut point (|x - s| * h <= max(maxWidth, dispMax) * step), signed. */
   def spanBits(p: ElasParams): Int = log2Ceil(math.max(p.maxWidth, p.dispMax + 1) * p.candidateStep + 1) + 2
   /** Both triangles' planes of one view: 2 x (a, b, c, anchorU, anchorV, valid). */
-  def planeBits(p: ElasParams): Int = 2 * (3 * 32 + p.colBits + 1 + p.rowBits + 1)
   def gridCellBits(p: ElasParams): Int = 2 * p.storedDisparities * p.signedDispBits
   /** Cycles a frame costs beyond its pixels: the flush, the three pipeline registers, and the first row's planes
     * and primer (K - 1 cells and its register step, after the frame size's two register steps) when they have not
@@ -1149,10 +1173,10 @@ object DenseMatcher {
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
       "2 cell rows of the cells' corner disparities, Mem with 2 combinational read ports (primer, window shift)"),
-    MemoryUse("Dense", "planeBanksL", p.latticeColsMax - 1, 2 * planeBits(p),
-      "2 cell rows of both triangles' left planes, Mem with 1 combinational read port"),
-    MemoryUse("Dense", "planeBanksR", p.latticeColsMax - 1, 2 * planeBits(p),
-      "2 cell rows of both triangles' right planes, Mem with 1 combinational read port"),
+    MemoryUse("Dense", "anchorBanks", p.latticeColsMax - 1, 2 * 2 * 2 * (p.colBits + 1 + p.rowBits),
+      "2 views x 2 cell rows of both triangles' plane anchors, Mem with 1 combinational read port (stage A3)"),
+    MemoryUse("Dense", "coeffBanks", p.latticeColsMax - 1, 2 * 2 * 2 * (3 * 32 + 1),
+      "2 views x 2 cell rows of both triangles' plane coefficients, Mem with 1 combinational read port (stage B)"),
     MemoryUse("Dense", "gridBanks", p.gridColsMax, 2 * gridCellBits(p),
       "2 grid rows of both views' candidates, Mem with 1 combinational read port"),
     MemoryUse("Dense", "refRing", ringDepth(p), 2 * 8 * p.descriptorBytes,

@@ -120,8 +120,13 @@ class GridVector(p: ElasParams) extends Module {
   val lastU = Reg(new CellRem)
   val lastV = Reg(new CellRem)
 
+  // Grid rows from the row being emitted to the next node's row (nodeV.cell - emitRow, 0..3 while inBusy), counted
+  // so that ready is a register test: the compare nodeV.cell < emitRow + 3 ran through the input slice's handshake
+  // into inBusy, the whole top's worst path. The input stalls at 3 (row gy + 3 while row gy is still emitted).
+  val rowsAhead = RegInit(0.U(2.W))
+  val emitRowDone = WireDefault(false.B) // the emission's last cell of row emitRow goes out
   val start = io.in.valid && io.in.bits.sof && !inBusy && !emitBusy
-  io.in.ready := Mux(inBusy, nodeV.cell < emitRow +& 3.U, !io.in.bits.sof || !emitBusy)
+  io.in.ready := Mux(inBusy, rowsAhead =/= 3.U, !io.in.bits.sof || !emitBusy)
   val accept = io.in.fire && (inBusy || start)
   val startU = origin(p.colBits, io.frameWidth)
   val startV = origin(p.rowBits, io.frameHeight)
@@ -150,6 +155,13 @@ class GridVector(p: ElasParams) extends Module {
       nodeU := Mux(start, advance(startU, startLast(io.frameWidth)), advance(nodeU, lastU))
     }
   }
+  // start sets nodeV.cell and emitRow to 0 (its beat never ends a row: Lw >= 2); a row end moves the next node to
+  // the next grid row when the step carries into it or the last pixel lies in it
+  val nodeRowUp = accept && io.in.bits.eol && !start && advance(nodeV, lastV).cell =/= nodeV.cell
+  rowsAhead := Mux(start, 0.U, rowsAhead + nodeRowUp.asUInt - emitRowDone.asUInt)
+  assert(!inBusy || (nodeV.cell >= emitRow && nodeV.cell === emitRow +& rowsAhead),
+    "GridVector: rowsAhead differs from nodeV.cell - emitRow")
+  assert(!(start && io.in.bits.eol), "GridVector: a frame's first lattice node ends its row")
 
   // ---- mark pipeline: s1 = position (register), s2 = the words read for it (OR + write) ----
   class Mark extends Bundle {
@@ -369,6 +381,7 @@ class GridVector(p: ElasParams) extends Module {
             emitBusy := false.B
           }
           emitRow := emitRow + 1.U
+          emitRowDone := true.B
           state := sIdle
         }.otherwise {
           colBL := colCL; colBR := colCR
