@@ -94,7 +94,7 @@ class GridVector(p: ElasParams) extends Module {
   /** The next node: a full step (rem + step wraps at most once, as step <= gridSize) or the last pixel. */
   def advance(at: Position, last: CellRem): Position = {
     val next = Wire(chiselTypeOf(at))
-    val carry = at.rem >= (gs - step).U
+    val carry = stepCarries(at)
     val steppedRem = Mux(carry, at.rem - (gs - step).U, at.rem + step.U)
     next.cell := Mux(at.fits, at.cell + carry, last.cell)
     next.rem := Mux(at.fits, steppedRem, last.rem)
@@ -102,12 +102,19 @@ class GridVector(p: ElasParams) extends Module {
     next.fits := at.fits && at.room >= (2 * step).U
     next
   }
+  def stepCarries(at: Position): Bool = at.rem >= (gs - step).U
+  /** rem + room, the last pixel's remainder before it wraps (< gridSize + 2 step <= 3 gridSize while exact). */
+  def lastSum(at: Position): UInt = {
+    val nearBits = math.min(log2Ceil(2 * step + 1), at.room.getWidth)
+    at.rem +& at.room(nearBits - 1, 0)
+  }
+  /** The next node lies in the next cell: a full step carries, or the last pixel is in a later cell. */
+  def nextCellUp(at: Position): Bool = Mux(at.fits, stepCarries(at), lastSum(at) >= gs.U)
   /** Cell and remainder of the last pixel (position + room), exact while room < 2 step. That holds one node before
     * the last step and stays true (the target does not move), so registering it each cycle has it ready in time.
     */
   def lastPixel(at: Position): CellRem = {
-    val nearBits = math.min(log2Ceil(2 * step + 1), at.room.getWidth)
-    val sum = at.rem +& at.room(nearBits - 1, 0) // < gridSize + 2 step <= 3 gridSize
+    val sum = lastSum(at)
     val wraps = Mux(sum >= (2 * gs).U, 2.U, Mux(sum >= gs.U, 1.U, 0.U))
     val l = Wire(new CellRem)
     l.cell := at.cell + wraps
@@ -156,8 +163,10 @@ class GridVector(p: ElasParams) extends Module {
     }
   }
   // start sets nodeV.cell and emitRow to 0 (its beat never ends a row: Lw >= 2); a row end moves the next node to
-  // the next grid row when the step carries into it or the last pixel lies in it
-  val nodeRowUp = accept && io.in.bits.eol && !start && advance(nodeV, lastV).cell =/= nodeV.cell
+  // the next grid row when the step carries into it or the last pixel lies in it. That test is registered like
+  // lastV: nodeV changes only at a row end or a start, and a row end is at least two beats after either.
+  val rowUpAhead = RegNext(Mux(start, nextCellUp(startV), nextCellUp(nodeV)), false.B)
+  val nodeRowUp = accept && io.in.bits.eol && !start && rowUpAhead
   rowsAhead := Mux(start, 0.U, rowsAhead + nodeRowUp.asUInt - emitRowDone.asUInt)
   assert(!inBusy || (nodeV.cell >= emitRow && nodeV.cell === emitRow +& rowsAhead),
     "GridVector: rowsAhead differs from nodeV.cell - emitRow")
