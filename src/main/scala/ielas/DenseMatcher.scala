@@ -1161,7 +1161,6 @@ object DenseMatcher {
   def rasterCells(p: ElasParams): Int = 2 + (p.dispMax + p.candidateStep - 1) / p.candidateStep
   /** Bits of a scaled cut point (|x - s| * h <= max(maxWidth, dispMax) * step), signed. */
   def spanBits(p: ElasParams): Int = log2Ceil(math.max(p.maxWidth, p.dispMax + 1) * p.candidateStep + 1) + 2
-  /** Both triangles' planes of one view: 2 x (a, b, c, anchorU, anchorV, valid). */
   def gridCellBits(p: ElasParams): Int = 2 * p.storedDisparities * p.signedDispBits
   /** Cycles a frame costs beyond its pixels: the flush, the three pipeline registers, and the first row's planes
     * and primer (K - 1 cells and its register step, after the frame size's two register steps) when they have not
