@@ -58,9 +58,9 @@ import chisel3.util._
   *
   * Pipeline: A (window shift, cover tests, grid read) -> A1..A3 (owner) -> B -> B1 (texture SAD in quarters, plane
   * offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi, candidates, ring reads; one cycle per
-  * candidate group), stalling as a whole; then, never stalling, D (ring read) -> D2, D3 (the ring data, registered
-  * twice: a block RAM takes D2 as its read register) -> E (four quarter-descriptor SADs per lane) -> F (cost with the
-  * prior) -> the first-minimum tree ([[DenseMatcher.treeRegisters]] register levels) -> an output queue with a slot
+  * candidate group), stalling as a whole; then, never stalling, D (ring read) -> D2 (the ring data: a block RAM
+  * takes it as its read register) -> D3 (byte differences) -> E (four quarter-descriptor SADs per lane) -> F (cost with
+  * the prior) -> the first-minimum tree ([[DenseMatcher.treeRegisters]] register levels) -> an output queue with a slot
   * for every pixel in flight behind C (credit counted). Each register step is a few LUTs deep (docs/timing.md).
   */
 class DenseMatcher(p: ElasParams) extends Module {
@@ -88,7 +88,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   private val groups = p.denseGroups //        cycles per pixel of candidate evaluation (lanes x groups >= candidates)
   private val ringDepth = DenseMatcher.ringDepth(p)
   private val ringW = log2Ceil(ringDepth)
-  private val sadParts = 4 //          each lane's SAD in four registered parts (DenseMatcher.scala, stage D2)
+  private val sadParts = 4 //          each lane's SAD in four registered parts (stages D3, E)
   private val costW = 14 //             SAD16 <= 4080 plus a prior >= -4096 fits 14 signed bits
   require(p.priorTable.take(R + 1).forall(v => v >= -(1 << 12) && v < (1 << 12)),
     s"priorTable entries 0..planeRadius must lie in -4096..4095 (got ${p.priorTable.take(R + 1)})")
@@ -183,7 +183,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       val beatFp = Mux(in.bits.sof, !fp, fp)
       val beatRow = Mux(in.bits.sof, 0.U, row)
       fp := beatFp
-      col := beatCol + 1.U
+      col := Mux(in.bits.sof, 1.U, col + 1.U) // not beatCol + 1: beatCol is the bank write address, a wide net
       row := beatRow
       when(in.bits.eol) {
         tag(fill).fp := beatFp
@@ -436,9 +436,18 @@ class DenseMatcher(p: ElasParams) extends Module {
   val refRing = SyncReadMem(ringDepth, Vec(2, UInt(descBits.W))) // (descL, descR) of every stream position
   val ringL = Seq.fill(lanes)(SyncReadMem(ringDepth, UInt(descBits.W))) // descL: the right view's targets
   val ringR = Seq.fill(lanes)(SyncReadMem(ringDepth, UInt(descBits.W))) // descR(P) written from stage B
+  // Each replica of ringL is written at its own copy of wp: one register fanned out to every replica's block RAMs was
+  // one net of 9.6 ns on the ECP5 at small-c4. Copy k holds wp ^ key (or Yosys would merge the copies back into one).
+  val wpCopies = (0 until lanes).map { k =>
+    val key = ((k + 1) & ((1 << ringW) - 1)).U(ringW.W)
+    val keyed = RegInit(key)
+    when(slot) { keyed := ((keyed ^ key) + 1.U) ^ key }
+    assert((keyed ^ key) === wp, "DenseMatcher: a ring write address copy differs from wp")
+    keyed ^ key
+  }
   when(slot) {
     refRing.write(wp, VecInit(slotL, slotR))
-    ringL.foreach(_.write(wp, slotL))
+    for ((ring, addr) <- ringL.zip(wpCopies)) ring.write(addr, slotL)
   }
 
   // pixel generator: pixel P = n - dispMax enters stage A with stream position n
@@ -786,6 +795,16 @@ class DenseMatcher(p: ElasParams) extends Module {
   // ---------------------------------------------------------------- stages B1..B3: texture, plane value and range
   // d_p = (c + a (u - anchorU) + b (v - anchorV) + 2^15) >> 16 in three register steps (offsets, products, sum), the
   // texture SAD beside them; the same exact integer arithmetic as one expression, only registered.
+  // each SAD in four quarter-descriptor parts (a 16- or 8-byte adder tree maps to 7 LUT levels), added a stage later
+  val partBytes = p.descriptorBytes / sadParts
+  require(partBytes * sadParts == p.descriptorBytes)
+  def quarter(x: UInt, part: Int): UInt = x(8 * partBytes * (part + 1) - 1, 8 * partBytes * part)
+  def partSads(x: UInt, y: UInt): Seq[UInt] = (0 until sadParts).map { part =>
+    val u = Module(new DescriptorSad(partBytes))
+    u.io.x := quarter(x, part)
+    u.io.y := quarter(y, part)
+    u.io.sad
+  }
   val flat = VecInit(Seq.fill(p.descriptorBytes)(128.U(8.W))).asUInt
   private val termW = 32 + math.max(colW, rowW) + 2
   class StageB1 extends Bundle {
@@ -907,11 +926,17 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
 
   // ---------------------------------------------------------------- stage C: candidates and their ring reads
+  /** Which prior a candidate's cost takes: the table's index travels with the candidate instead of the 14-bit value
+    * (E -> F looks it up beside the SAD's adder tree), which saves flip-flops in stages D..E. */
+  class PriorRef extends Bundle {
+    val on = Bool() //                          a plane range candidate of a pixel with a plane
+    val index = UInt(log2Ceil(R + 1).W) //      |d - d_p|
+  }
   /** One candidate lane: grid lanes first (k = 0 until S), then the plane range (lo + i, i = 0..2R). */
   class Cand extends Bundle {
     val valid = Bool()
     val d = UInt(p.dispBits.W)
-    val prior = SInt(costW.W)
+    val prior = new PriorRef
   }
   class StageD extends Bundle {
     val refs = Vec(2, UInt(descBits.W))
@@ -935,7 +960,8 @@ class DenseMatcher(p: ElasParams) extends Module {
       val x = Wire(new Cand)
       x.valid := c.gridOk(view)(k) && !inRange // the list ends at the first -1
       x.d := du
-      x.prior := 0.S
+      x.prior.on := false.B
+      x.prior.index := 0.U
       x
     }
     val rangeCands = (0 to 2 * R).map { i =>
@@ -946,7 +972,8 @@ class DenseMatcher(p: ElasParams) extends Module {
       val x = Wire(new Cand)
       x.valid := !c.empty(view) && d <= hi && legal(du)
       x.d := du
-      x.prior := Mux(c.priorOn(view), prior(absDelta(log2Ceil(R + 1) - 1, 0)), 0.S)
+      x.prior.on := c.priorOn(view)
+      x.prior.index := absDelta(log2Ceil(R + 1) - 1, 0)
       x
     }
     val all = gridCands ++ rangeCands
@@ -1009,7 +1036,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val valid = Bool()
     val parts = Vec(sadParts, UInt(DescriptorSad.bits(p.descriptorBytes).W)) // SADs of the descriptor's quarters
     val d = UInt(p.dispBits.W)
-    val prior = SInt(costW.W)
+    val prior = new PriorRef
   }
   def tailOf(x: StageD): Tail = {
     val t = Wire(new Tail)
@@ -1019,35 +1046,38 @@ class DenseMatcher(p: ElasParams) extends Module {
   val eValid = RegInit(false.B)
   val eTail = Reg(new Tail)
   val eSad = Reg(Vec(2, Vec(lanes, new Sad)))
-  // D -> D2 -> D3: the ring data registered twice before the SAD. A LUT-RAM ring reads combinationally from its
-  // address register; Yosys takes a block-RAM ring's first data register (D2) into the block as its read register,
-  // whose clock-to-out (4.1 ns on the ECP5) then started the SAD's path, so D3 is the fabric register the SAD reads.
-  val d2Valid = RegInit(false.B)
+  // D -> D2 -> D3 -> E: the ring data (D2), the byte differences (D3), the quarter SADs (E). A LUT-RAM ring reads
+  // combinationally from its address register; Yosys takes a block-RAM ring's data register (D2) into the block as
+  // its read register. The byte subtracts fit after that read, so the adder tree starts from D3's registers: 9 bits a
+  // byte, fewer flip-flops than the two descriptors whose difference they hold.
+  val d2Valid = RegNext(dValid, false.B)
   val d2 = Reg(new StageD)
   val d2Targets = Reg(Vec(2, Vec(lanes, UInt(descBits.W))))
-  val d3Valid = RegInit(false.B)
-  val d3 = Reg(new StageD)
-  val d3Targets = Reg(Vec(2, Vec(lanes, UInt(descBits.W))))
-  d2Valid := dValid
   d2 := dReg
   for (view <- 0 until 2; k <- 0 until lanes) d2Targets(view)(k) := targets(view)(k)
-  d3Valid := d2Valid
-  d3 := d2
-  d3Targets := d2Targets
-  // the references once per lane: one register set beside each lane's SAD instead of one net to every lane (loaded
-  // only for a valid candidate, whose SAD alone is used: the enables differ, so synthesis keeps the copies apart)
-  val d3Refs = Reg(Vec(2, Vec(lanes, UInt(descBits.W))))
-  for (view <- 0 until 2; k <- 0 until lanes) when(d2.cand(view)(k).valid) { d3Refs(view)(k) := d2.refs(view) }
-  // Each lane's SAD as four quarter-descriptor SADs (a 16- or 8-byte adder tree maps to 7 LUT levels), summed with
-  // the prior in E -> F.
-  def partSads(x: UInt, y: UInt): Seq[UInt] = (0 until sadParts).map { part =>
-    val (lo, hi) = (part * p.descriptorBytes / sadParts, (part + 1) * p.descriptorBytes / sadParts)
-    val u = Module(new DescriptorSad(hi - lo))
-    u.io.x := x(8 * hi - 1, 8 * lo)
-    u.io.y := y(8 * hi - 1, 8 * lo)
+  // the references once per pair of lanes: one register set beside two lanes' subtracts instead of one net to every
+  // lane (loaded only for a valid candidate of the pair, whose SAD alone is used: the enables differ, so synthesis
+  // keeps the copies apart). One set per lane would hold 64 flip-flops a lane more.
+  val d2Refs = Reg(Vec(2, Vec((lanes + 1) / 2, UInt(descBits.W))))
+  for (view <- 0 until 2; j <- 0 until (lanes + 1) / 2) {
+    val pair = dReg.cand(view).slice(2 * j, 2 * j + 2)
+    when(pair.map(_.valid).reduce(_ || _)) { d2Refs(view)(j) := dReg.refs(view) }
+  }
+  // each lane's quarter SADs: the byte differences into D3, their magnitudes' sums into E (added with the prior in F)
+  val d3Valid = RegNext(d2Valid, false.B)
+  val d3 = RegNext(d2)
+  val d3Differences = Reg(Vec(2, Vec(lanes, Vec(sadParts, UInt((9 * partBytes).W)))))
+  for (view <- 0 until 2; k <- 0 until lanes; part <- 0 until sadParts) {
+    val u = Module(new ByteDifferences(partBytes))
+    u.io.x := quarter(d2Refs(view)(k / 2), part)
+    u.io.y := quarter(d2Targets(view)(k), part)
+    d3Differences(view)(k)(part) := u.io.diffs
+  }
+  def quarterSad(diffs: UInt): UInt = {
+    val u = Module(new DifferencesSad(partBytes))
+    u.io.diffs := diffs
     u.io.sad
   }
-  val laneSad = (0 until 2).map(view => (0 until lanes).map(k => partSads(d3Refs(view)(k), d3Targets(view)(k))))
   eValid := d3Valid
   eTail := tailOf(d3)
   for (view <- 0 until 2; k <- 0 until lanes) {
@@ -1055,7 +1085,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     eSad(view)(k).valid := x.valid
     eSad(view)(k).d := x.d
     eSad(view)(k).prior := x.prior
-    for (h <- 0 until sadParts) eSad(view)(k).parts(h) := laneSad(view)(k)(h)
+    for (h <- 0 until sadParts) eSad(view)(k).parts(h) := quarterSad(d3Differences(view)(k)(h))
   }
   val fValid = RegInit(false.B)
   val fTail = Reg(new Tail)
@@ -1066,7 +1096,8 @@ class DenseMatcher(p: ElasParams) extends Module {
     val x = eSad(view)(k)
     fCand(view)(k).valid := x.valid
     fCand(view)(k).d := x.d
-    fCand(view)(k).cost := x.parts.reduceTree(_ +& _)(DescriptorSad.bits(p.descriptorBytes) - 1, 0).zext + x.prior
+    fCand(view)(k).cost := x.parts.reduceTree(_ +& _)(DescriptorSad.bits(p.descriptorBytes) - 1, 0).zext +
+      Mux(x.prior.on, prior(x.prior.index), 0.S)
   }
 
   // ---------------------------------------------------------------- the first minimum

@@ -26,8 +26,9 @@ class PostBeat(bits: Int) extends Bundle {
   * 2 columns behind the input (a column written in cycle t is read from t + 1 on), and markers go to columns the
   * output has not reached in that row. Slots are wrapping counters (no `seq % B`); the input / output distance is one
   * small counter ([[ahead]]) and the output row's metadata sits in registers, so the handshake logic stays shallow;
-  * the last-column flag, outCol + 1 and the early-row test (input 2 columns ahead) are registers formed a cycle
-  * ahead, so the take only selects the next read address (the early test sees the input a cycle late: +1 clock).
+  * the last-column flag, outCol + 1, the early-row test (input 2 columns ahead) and whether row v is ready are
+  * registers formed a cycle ahead, so the take only selects the next read address (the early test sees the input a
+  * cycle late: +1 clock).
   */
 class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: DecoupledIO[PostBeat], inWord: UInt) {
   val B: Int = above + below + 2
@@ -125,7 +126,8 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   private def complete(k: Int): Bool = ahead >= (k + 1).U
   // The metadata of rows outSeq .. outSeq + below, in registers reloaded every cycle from the slots they hold next
   // cycle. Read only for complete rows, whose metadata was written by their first pixel (rows are >= 2 wide).
-  private val lastRel: Map[Int, Bool] = (0 to below).map(k => k -> RegNext(metaNext(metaLast, k), false.B)).toMap
+  private val lastNext: Map[Int, Bool] = (0 to below).map(k => k -> metaNext(metaLast, k)).toMap
+  private val lastRel: Map[Int, Bool] = lastNext.map { case (k, x) => k -> RegNext(x, false.B) }
   private def lastAt(k: Int): Bool = lastRel(k)
   // Row v + below may still be arriving: column u of row v only needs column u of that row (vertical windows and
   // the column pass's markers, which are written while that column is taken), read 2 columns behind the input.
@@ -133,12 +135,20 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   // is known; the input's is seen a cycle late, which only delays): the handshake no longer waits for a column
   // compare. An input row ending now makes the next one start at column 0 (false: that row then counts as complete
   // or is a new row the early rule must not see).
-  private val inAhead2: Bool = RegInit(false.B)
-  inAhead2 := !inRowDone && Mux(advancing, Mux(atLastCol, inCol > 1.U, inCol > outCol +& 2.U), inCol > outCol +& 1.U)
-  private val early: Bool = if (below == 0) false.B
-    else (0 until below).map(k => complete(k) && !lastAt(k)).reduce(_ && _) && ahead === below.U && inAhead2
+  private val inAhead2Next =
+    !inRowDone && Mux(advancing, Mux(atLastCol, inCol > 1.U, inCol > outCol +& 2.U), inCol > outCol +& 1.U)
+  private val inAhead2: Bool = RegNext(inAhead2Next, false.B)
+  /** Row v can be read at column outCol, from the ring's counters (rows ahead, last-row flags, the early test). */
+  private def readyOf(ahead: UInt, last: Int => Bool, inAhead2: Bool): Bool = {
+    def complete(k: Int): Bool = ahead >= (k + 1).U
+    val early = (0 until below).map(k => complete(k) && !last(k)).reduce(_ && _) && ahead === below.U && inAhead2
+    complete(0) && (complete(below) || early || (0 until below).map(k => complete(k) && last(k)).reduce(_ || _))
+  }
+  /** With below > 0, a register formed a cycle ahead from the counters' next values: the take (every slot's read
+    * address select) starts at flip-flops, not at the compares of `ahead` (the whole top's worst path at tiny-w3-c8). */
   val rowReady: Bool = if (below == 0) complete(0)
-    else complete(0) && (complete(below) || early || (0 until below).map(k => complete(k) && lastAt(k)).reduce(_ || _))
+    else RegNext(readyOf(rows.next(inRowDone, outRowDone), lastNext, inAhead2Next), false.B)
+  if (below > 0) assert(rowReady === readyOf(ahead, lastAt, inAhead2), "RowRing: the row-ready register")
   val v: UInt = RegNext(metaNext(metaRow, 0), 0.U).suggestName("outRowV")
   val width: UInt = RegNext(metaNext(metaW, 0), 0.U)
   private val widthM1: UInt = RegNext(metaNext(metaWm1, 0), 0.U)
