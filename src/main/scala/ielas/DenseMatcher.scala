@@ -1069,8 +1069,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   val d3Differences = Reg(Vec(2, Vec(lanes, Vec(sadParts, UInt((9 * partBytes).W)))))
   for (view <- 0 until 2; k <- 0 until lanes; part <- 0 until sadParts) {
     val u = Module(new ByteDifferences(partBytes))
-    u.io.x := quarter(d2Refs(view)(k / 2), part)
-    u.io.y := quarter(d2Targets(view)(k), part)
+    u.io.x := quarter(d2Targets(view)(k), part) // the ring's data as the minuend: the subtrahend's inversion (a LUT
+    u.io.y := quarter(d2Refs(view)(k / 2), part) // on the ECP5) then sits on the register side, not after the read
     d3Differences(view)(k)(part) := u.io.diffs
   }
   def quarterSad(diffs: UInt): UInt = {
