@@ -926,8 +926,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
 
   // ---------------------------------------------------------------- stage C: candidates and their ring reads
-  /** Which prior a candidate's cost takes: the table's index travels with the candidate instead of the 14-bit value
-    * (E -> F looks it up beside the SAD's adder tree), which saves flip-flops in stages D..E. */
+  /** Which prior a candidate's cost takes: the table's index travels with the candidate instead of the 14-bit value,
+    * and E -> F looks it up beside the SAD's adder tree. */
   class PriorRef extends Bundle {
     val on = Bool() //                          a plane range candidate of a pixel with a plane
     val index = UInt(log2Ceil(R + 1).W) //      |d - d_p|
