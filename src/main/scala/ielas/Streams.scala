@@ -234,11 +234,9 @@ class RowsAhead(width: Int, maxAhead: Int) {
   /** The same for a buffer that is never cleared: ahead + 1 and ahead - 1 are formed from the register, and the row
     * ends only select. (With a clear, this form put LatticeFill at 7 LUT levels.) */
   def update(rowIn: Bool, rowOut: Bool): Unit = {
-    ahead := next(rowIn, rowOut)
+    ahead := Mux(rowIn === rowOut, ahead, Mux(rowIn, ahead + 1.U, ahead - 1.U))
     setFree(false.B, rowIn, rowOut)
   }
-  /** ahead's next value in the never-cleared form (for registers formed a cycle ahead from it). */
-  def next(rowIn: Bool, rowOut: Bool): UInt = Mux(rowIn === rowOut, ahead, Mux(rowIn, ahead + 1.U, ahead - 1.U))
   private def setFree(clear: Bool, rowIn: Bool, rowOut: Bool): Unit = {
     free := clear || Mux(rowIn === rowOut, ahead <= maxAhead.U,
       Mux(rowIn, ahead <= (maxAhead - 1).U, ahead <= (maxAhead + 1).U))
