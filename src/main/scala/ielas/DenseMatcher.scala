@@ -403,10 +403,6 @@ class DenseMatcher(p: ElasParams) extends Module {
   val lastCellWidth = RegNext(Mux(widthM1 - lastCellX0 < step.U, widthM1 - lastCellX0, step.U))
   def cellWidth(cu: UInt): UInt = Mux(cu === lastCell, lastCellWidth, step.U)(inW - 1, 0)
   aCellWidth := cellWidth(a.cu) // (a pixel entering A overrides this below)
-  // whether a's successor enters the next cell (the window shifts), registered the same way: the shift enable reaches
-  // every bit of the window, so it starts at a flip-flop rather than after the compare with lastCell
-  val aNextCell = Reg(Bool())
-  aNextCell := nextCellCol(a)
   // The handshake (adv, upAdv, slot) and what it enables read flags kept as registers (credits =/= 0, the last
   // candidate group, flushing, the primer lag done) rather than counter compares: it reaches every register of A..C.
   val creditOk = RegInit(true.B) // credits =/= 0
@@ -509,7 +505,6 @@ class DenseMatcher(p: ElasParams) extends Module {
       aFirst := genFirst
       aRowEnd := genRowEnd
       aCellWidth := cellWidth(gen.cu)
-      aNextCell := nextCellCol(gen)
       aGridHit := genGridHit
       aGridSel := genGridSel
       aShift := cellAt(gen.cu + (K - 1).U, gen.shiftX0)
@@ -640,12 +635,11 @@ class DenseMatcher(p: ElasParams) extends Module {
     else if (step == 3) RegNext(spanOf(shiftCuts, aUp, aDown))
     else spanOf(shiftCuts, aUp, aDown)
   when(aFire && !aRowEnd) {
-    when(aNextCell) {
+    when(nextCellCol(a)) {
       for (j <- 0 until K - 1) window(j) := win(j + 1)
       window(K - 1) := shiftSpan
     }.otherwise { window := win }
   }
-  assert(!aFire || aNextCell === nextCellCol(a), "DenseMatcher: the window shift register differs from the cell test")
 
   /** What travels unchanged with a pixel from stage A to stage C. */
   class Carry extends Bundle {
