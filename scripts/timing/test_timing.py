@@ -261,5 +261,50 @@ class WrapperTest(unittest.TestCase):
         # word-level registers: scan chain, capture, fold, and the module's accumulator
         self.assertEqual(sum(n for t, n in cells.items() if "dff" in t), 4)
 
+class SecondPassTest(unittest.TestCase):
+    """flow.ecp5_result: which first-pass results are routed again with --tmg-ripup, and what the row then shows."""
+
+    def run_with(self, first, second):
+        import flow
+        calls = []
+
+        def fake_guarded(design, module, kind, salt, args, runner):
+            calls.append((kind, salt))
+            return dict(first if kind == "ecp5" else second)
+        saved, flow.guarded = flow.guarded, fake_guarded
+        try:
+            return flow.ecp5_result(None, "M", "salt", None), calls, flow
+        finally:
+            flow.guarded = saved
+
+    def test_slow_router2_module_gets_second_pass(self):
+        first = {"status": "ok", "router": "router2", "fmax_mhz": 96.7, "cached": True, "seconds": {"nextpnr": 1.0},
+                 "critical_path": {"start": "a", "end": "b"}}
+        second = {"status": "ok", "router": "router2", "fmax_mhz": 102.7, "cached": False, "seconds": {"nextpnr": 2.0}}
+        r, calls, flow = self.run_with(first, second)
+        self.assertEqual([k for k, _ in calls], ["ecp5", "ecp5r"])
+        self.assertIn("tmg-ripup", calls[1][1])  # the second pass has a cache key of its own
+        self.assertEqual(r["fmax_mhz"], 102.7)
+        self.assertEqual(r["first_pass"]["fmax_mhz"], 96.7)
+        self.assertEqual(flow.ecp5_cells(r)[0], "102.7 (2nd pass; 1st 96.7)")
+        row = flow.timing_row("M", 1, False, {"cached": True, "seconds": 5}, r)
+        self.assertEqual(row["wall_seconds"], 8.0)  # both passes and the 7-series run
+        self.assertFalse(row["cached"])
+
+    def test_fast_or_router1_or_failed_module_keeps_first_pass(self):
+        for first in ({"status": "ok", "router": "router2", "fmax_mhz": 105.0},
+                      {"status": "ok", "router": "router1", "fmax_mhz": 80.0},
+                      {"status": "does_not_fit", "router": "router2"}):
+            r, calls, _ = self.run_with(first, {"status": "ok"})
+            self.assertEqual([k for k, _ in calls], ["ecp5"], first)
+            self.assertNotIn("first_pass", r)
+
+    def test_failed_second_pass_keeps_first_and_says_why(self):
+        first = {"status": "ok", "router": "router2", "fmax_mhz": 90.0, "cached": True, "seconds": {}}
+        r, _, flow = self.run_with(first, {"status": "error", "error": "time limit"})
+        self.assertEqual(r["fmax_mhz"], 90.0)
+        self.assertEqual(flow.ecp5_cells(r)[0], "90.0 (2nd pass failed: time limit)")
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=1)
