@@ -291,19 +291,20 @@ class SecondPassTest(unittest.TestCase):
         self.assertEqual(row["wall_seconds"], 8.0)  # both passes and the 7-series run
         self.assertFalse(row["cached"])
 
-    def test_fast_or_router1_or_failed_module_keeps_first_pass(self):
+    def test_fast_far_below_router1_or_failed_module_keeps_first_pass(self):
         for first in ({"status": "ok", "router": "router2", "fmax_mhz": 105.0},
-                      {"status": "ok", "router": "router1", "fmax_mhz": 80.0},
+                      {"status": "ok", "router": "router2", "fmax_mhz": 87.1},
+                      {"status": "ok", "router": "router1", "fmax_mhz": 100.0},
                       {"status": "does_not_fit", "router": "router2"}):
             r, calls, _ = self.run_with(first, {"status": "ok"})
             self.assertEqual([k for k, _ in calls], ["ecp5"], first)
             self.assertNotIn("first_pass", r)
 
     def test_failed_second_pass_keeps_first_and_says_why(self):
-        first = {"status": "ok", "router": "router2", "fmax_mhz": 90.0, "cached": True, "seconds": {}}
+        first = {"status": "ok", "router": "router2", "fmax_mhz": 99.0, "cached": True, "seconds": {}}
         r, _, flow = self.run_with(first, {"status": "error", "error": "time limit"})
-        self.assertEqual(r["fmax_mhz"], 90.0)
-        self.assertEqual(flow.ecp5_cells(r)[0], "90.0 (2nd pass failed: time limit)")
+        self.assertEqual(r["fmax_mhz"], 99.0)
+        self.assertEqual(flow.ecp5_cells(r)[0], "99.0 (2nd pass failed: time limit)")
 
 
 if __name__ == "__main__":
