@@ -261,6 +261,7 @@ class WrapperTest(unittest.TestCase):
         # word-level registers: scan chain, capture, fold, and the module's accumulator
         self.assertEqual(sum(n for t, n in cells.items() if "dff" in t), 4)
 
+
 class SecondPassTest(unittest.TestCase):
     """flow.ecp5_result: which first-pass results are routed again with --tmg-ripup, and what the row then shows."""
 
