@@ -55,9 +55,13 @@ class FrameGuard(p: ElasParams) extends Module {
   val y = RegInit(0.U(p.rowBits.W))
   val width = RegInit(FrameSize.minWidth.U(p.colBits.W))
   val height = RegInit(FrameSize.minHeight.U(p.rowBits.W))
-  // width - 1 and height - 1, set with them: the line and frame end tests are compares of registers, no subtractor
-  val lastX = RegInit((FrameSize.minWidth - 1).U(p.colBits.W))
-  val lastY = RegInit((FrameSize.minHeight - 1).U(p.rowBits.W))
+  // width - 2 and height - 2, set with them; x === width - 1 and y === height - 1 are registers formed a cycle ahead
+  // from them (x + 1 and y + 1 next are compared now), so the line and frame end tests behind the source select are
+  // flip-flops, not carry chains (the whole top's path from the held SOF beat to the aborted queue ran through both)
+  val lastXm1 = RegInit((FrameSize.minWidth - 2).U(p.colBits.W))
+  val lastYm1 = RegInit((FrameSize.minHeight - 2).U(p.rowBits.W))
+  val xIsLast = RegInit(false.B)
+  val yIsLast = RegInit(false.B)
   val padLine = RegInit(false.B)  // zero pixels to the end of the line
   val padFrame = RegInit(false.B) // zero pixels to the end of the frame (a SOF beat is held)
   val dropLine = RegInit(false.B) // dropping a long line's extra pixels up to its eol
@@ -101,7 +105,7 @@ class FrameGuard(p: ElasParams) extends Module {
     * (never for the first pixel: W >= 32, so no size multiplexer reaches the end tests).
     */
   def emit(left: UInt, right: UInt, first: Boolean): Bool = {
-    val lastCol = if (first) false.B else x === lastX
+    val lastCol = if (first) false.B else xIsLast
     output.valid := true.B
     output.bits.left := left
     output.bits.right := right
@@ -109,7 +113,10 @@ class FrameGuard(p: ElasParams) extends Module {
     output.bits.eol := lastCol
     x := (if (first) 1.U else Mux(lastCol, 0.U, x + 1.U))
     y := (if (first) 0.U else Mux(lastCol, y + 1.U, y))
-    when(lastCol && y === lastY) {
+    // next x is 1 after a frame's first pixel, 0 after a line's last (never the last: W >= 32, H >= 16)
+    xIsLast := (if (first) false.B else x === lastXm1)
+    if (first) yIsLast := false.B else when(lastCol) { yIsLast := y === lastYm1 }
+    when(lastCol && yIsLast) {
       frameEnd := true.B
       active := false.B
       afterFrame := true.B
@@ -142,8 +149,8 @@ class FrameGuard(p: ElasParams) extends Module {
           starting := true.B
           width := srcWidth
           height := srcHeight
-          lastX := srcWidth - 1.U
-          lastY := srcHeight - 1.U
+          lastXm1 := srcWidth - 2.U
+          lastYm1 := srcHeight - 2.U
           emit(src.left, src.right, first = true)
           when(src.eol) { padLine := true.B; malformed := true.B; cause(FrameGuard.Cause.shortLine) := true.B }
         }.otherwise {
@@ -186,6 +193,7 @@ class FrameGuard(p: ElasParams) extends Module {
   when(io.clearError) { error := false.B }
   when(setError) { error := true.B }
 
+  assert(!active || (xIsLast === (x === width - 1.U) && yIsLast === (y === height - 1.U)), "FrameGuard: the end registers")
   io.error := error
   io.outWidth := width
   io.outHeight := height

@@ -135,7 +135,11 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   // is known; the input's is seen a cycle late, which only delays): the handshake no longer waits for a column
   // compare. An input row ending now makes the next one start at column 0 (false: that row then counts as complete
   // or is a new row the early rule must not see).
-  private val inAhead2Cols = Mux(advancing, Mux(atLastCol, inCol > 1.U, inCol > outCol +& 2.U), inCol > outCol +& 1.U)
+  // (the input 2 columns ahead of the output's column next cycle when the output stays, takes a column, ends its row)
+  private val aheadIfStay = inCol > outCol +& 1.U
+  private val aheadIfStep = inCol > outCol +& 2.U
+  private val aheadIfRowDone = inCol > 1.U
+  private val inAhead2Cols = Mux(advancing, Mux(atLastCol, aheadIfRowDone, aheadIfStep), aheadIfStay)
   private val inAhead2: Bool = RegNext(!inRowDone && inAhead2Cols, false.B)
   /** Row v can be read at column outCol, from the ring's counters (rows ahead, last-row flags, the early test). */
   private def readyOf(ahead: UInt, last: Int => Bool, inAhead2: Bool): Bool = {
@@ -146,9 +150,17 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   /** With below > 0, a register formed a cycle ahead from the counters' next values: the take (every slot's read
     * address select) starts at flip-flops, not at the compares of `ahead` (the whole top's worst path at tiny-w3-c8).
     * The input's row end this cycle is left out (seen a clock late, which only delays: readiness only grows with
-    * ahead, and the early test that an ending row could pass holds for the complete row it becomes). */
-  val rowReady: Bool = if (below == 0) complete(0)
-    else RegNext(readyOf(Mux(outRowDone, ahead - 1.U, ahead), lastNext, inAhead2Cols), false.B)
+    * ahead, and the early test that an ending row could pass holds for the complete row it becomes). The three
+    * cases of the output's move (none, a column, the row's last column) are evaluated apart and the take only
+    * selects among them: its path from the next step's ready to this register is one select, not the slot
+    * metadata reads and compares behind them (the whole top's next worst path at tiny-w3-c8). */
+  val rowReady: Bool = if (below == 0) complete(0) else {
+    val lastStay = (k: Int) => metaLast(rel(k))
+    val stay = readyOf(ahead, lastStay, aheadIfStay)
+    val step = readyOf(ahead, lastStay, aheadIfStep)
+    val rowDone = readyOf(ahead - 1.U, (k: Int) => metaLast(relSucc(k)), aheadIfRowDone)
+    RegNext(Mux(advancing, Mux(atLastCol, rowDone, step), stay), false.B)
+  }
   if (below > 0) assert(!rowReady || readyOf(ahead, lastAt, inAhead2), "RowRing: the row-ready register")
   val v: UInt = RegNext(metaNext(metaRow, 0), 0.U).suggestName("outRowV")
   val width: UInt = RegNext(metaNext(metaW, 0), 0.U)
@@ -193,7 +205,11 @@ class RowWindow(p: ElasParams, bits: Int, in: DecoupledIO[PostBeat]) {
   val ent: Vec[PostBeat] = Reg(Vec(N, new PostBeat(bits)))
   val pending: UInt = RegInit(0.U(3.W)) // entries 4 .. 4 + pending - 1 hold pixels
   private val colReg = RegInit(0.U(p.colBits.W)) // column of the centre
-  in.ready := pending < 5.U
+  // in.ready = pending < 5, kept as a register formed from pending's next value: the previous step's output
+  // handshake starts at a flip-flop, not at this compare (the whole top's worst path at tiny-w3-c8 ran from it)
+  private val inReady = RegInit(true.B)
+  in.ready := inReady
+  assert(inReady === (pending < 5.U), "RowWindow: the input-ready register")
   val centre: PostBeat = ent(4)
   val u: UInt = Mux(centre.sof, 0.U, colReg)
   private val rowEnds = (0 until 3).map(j => pending > j.U && ent(4 + j).eol).reduce(_ || _)
@@ -212,7 +228,9 @@ class RowWindow(p: ElasParams, bits: Int, in: DecoupledIO[PostBeat]) {
     val shifted = if (i < N - 1) ent(i + 1) else ent(i)
     ent(i) := Mux(take, Mux(inHereTake, in.bits, shifted), Mux(inHereKeep, in.bits, ent(i)))
   }
-  pending := pending + in.fire.asUInt - take.asUInt
+  private val pendingNext = pending + in.fire.asUInt - take.asUInt
+  pending := pendingNext
+  inReady := pendingNext < 5.U
 }
 
 object PostFilters {
