@@ -22,7 +22,7 @@ import chisel3.util._
   * pixel P = n - dispMax so that the right view's targets (columns u + d) have arrived. One [[DescriptorSad]] per
   * lane; the first minimum over the lanes in candidate order (grid lanes, then the plane range) is the algorithm's
   * selection. The target rings are read every clock at stage C's addresses (the back half never stalls); the
-  * reference ring's read follows the pixel generator ([[DenseMatcher.stageRead]]), so a stall repeats that read
+  * reference ring's read follows the pixel generator ([[DenseMatcher.stageAddress]]), so a stall repeats that read
   * instead of holding 128-bit data. docs/architecture.md ("Fitting the device") gives the alternatives
   * measured.
   * Entries that fall into another row (or the flush after a frame) are never selected: a candidate is skipped
@@ -403,6 +403,10 @@ class DenseMatcher(p: ElasParams) extends Module {
   val lastCellWidth = RegNext(Mux(widthM1 - lastCellX0 < step.U, widthM1 - lastCellX0, step.U))
   def cellWidth(cu: UInt): UInt = Mux(cu === lastCell, lastCellWidth, step.U)(inW - 1, 0)
   aCellWidth := cellWidth(a.cu) // (a pixel entering A overrides this below)
+  // whether a's successor enters the next cell (the window shifts), registered the same way: the shift enable reaches
+  // every bit of the window, so it starts at a flip-flop rather than after the compare with lastCell
+  val aNextCell = Reg(Bool())
+  aNextCell := nextCellCol(a)
   // The handshake (adv, upAdv, slot) and what it enables read flags kept as registers (credits =/= 0, the last
   // candidate group, flushing, the primer lag done) rather than counter compares: it reaches every register of A..C.
   val creditOk = RegInit(true.B) // credits =/= 0
@@ -470,7 +474,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   val sofPending = RegInit(false.B) // a frame the primer has not started yet
   val aAddr = Reg(UInt(ringW.W)) //     ring address of a's pixel (its stream position)
   // a's reference descriptors, read from the ring as the pixel enters stage A
-  val aRef = DenseMatcher.stageRead(refRing, wp - D.U, slot && !slotSof && lagDone && genActive)
+  val aRefAddr = DenseMatcher.stageAddress(wp - D.U, slot && !slotSof && lagDone && genActive)
+  val aRef = refRing.read(aRefAddr)
 
   when(io.desc.fire && io.desc.bits.eof) { flush := D.U; flushing := true.B }
   when(slot) {
@@ -505,6 +510,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       aFirst := genFirst
       aRowEnd := genRowEnd
       aCellWidth := cellWidth(gen.cu)
+      aNextCell := nextCellCol(gen)
       aGridHit := genGridHit
       aGridSel := genGridSel
       aShift := cellAt(gen.cu + (K - 1).U, gen.shiftX0)
@@ -523,6 +529,10 @@ class DenseMatcher(p: ElasParams) extends Module {
   aValid := aValidNext
   val aFlow = new Flow(aValid, aValidNext)
   val aFire = aFlow.moves // stage A's pixel moves on this cycle (upAdv && aValid, a register)
+  // refRing: read D positions behind the write (the ring is deeper than D + 10), or at the held address while nothing
+  // is written (stalled); during the flush and the primer lag the held address meets the wrapping writes, unused
+  CollisionFree.check("DenseMatcher: refRing", Seq(refRing), Seq(CollisionFree.Read(aRefAddr, aFire)),
+    Seq(CollisionFree.Write(slot, wp)))
   // The last cell column and row follow from the size minus 2 registered at sof, two register steps later (the
   // product by the reciprocal waits one step more): the divisions stay off the handshake paths, and each multiplier
   // starts and ends at flip-flops. The primer starts once they are there (`sizeReady`, three cycles after sof).
@@ -635,11 +645,12 @@ class DenseMatcher(p: ElasParams) extends Module {
     else if (step == 3) RegNext(spanOf(shiftCuts, aUp, aDown))
     else spanOf(shiftCuts, aUp, aDown)
   when(aFire && !aRowEnd) {
-    when(nextCellCol(a)) {
+    when(aNextCell) {
       for (j <- 0 until K - 1) window(j) := win(j + 1)
       window(K - 1) := shiftSpan
     }.otherwise { window := win }
   }
+  assert(!aFire || aNextCell === nextCellCol(a), "DenseMatcher: the window shift register differs from the cell test")
 
   /** What travels unchanged with a pixel from stage A to stage C. */
   class Carry extends Bundle {
@@ -987,16 +998,28 @@ class DenseMatcher(p: ElasParams) extends Module {
     }
   }
   // lane k of the left view reads descR(P - d_k), of the right view descL(P + d_k); the reads leave with the pixel
+  val targetAddrs = (0 until 2).map { view =>
+    (0 until lanes).map { k => if (view == 0) c.addr - candC(view)(k).d else c.addr + candC(view)(k).d }
+  }
   val targets = (0 until 2).map { view =>
-    (0 until lanes).map { k =>
-      val d = candC(view)(k).d
-      val addr = if (view == 0) c.addr - d else c.addr + d
-      (if (view == 0) ringR(k) else ringL(k)).read(addr) // every clock: D keeps it only when C issues
-    }
+    // every clock: D keeps the word only when C issues
+    (0 until lanes).map(k => (if (view == 0) ringR(k) else ringL(k)).read(targetAddrs(view)(k)))
   }
   val issue = adv && cValid // C issues a candidate group into the back half this clock
   val dValid = RegNext(issue, false.B)
   val dReg = Reg(new StageD)
+  // No used read meets a write: a valid target lies between the pixel's position (c.addr) and D positions on, all
+  // written; the write position is 1 to about 10 slots beyond (the pixels between A and C), and the ring is deeper
+  // than D + 10. ringR is written at stage B, 1 to about 4 positions after C's pixel; its valid targets lie at most
+  // D + 4 behind. Reads with a stale address or for an invalid candidate meet writes, unused.
+  for (k <- 0 until lanes) {
+    CollisionFree.check(s"DenseMatcher: ringL($k)", Seq(ringL(k)),
+      Seq(CollisionFree.Read(targetAddrs(1)(k), dValid && dReg.cand(1)(k).valid)),
+      Seq(CollisionFree.Write(slot, wpCopies(k))))
+    CollisionFree.check(s"DenseMatcher: ringR($k)", Seq(ringR(k)),
+      Seq(CollisionFree.Read(targetAddrs(0)(k), dValid && dReg.cand(0)(k).valid)),
+      Seq(CollisionFree.Write(bFlow.moves, b.px.carry.addr)))
+  }
   when(issue) { group := Mux(cLast, 0.U, group + 1.U) }
   val cLastNext = if (groups > 1) Mux(issue, !cLast && group === (groups - 2).U, cLast) else true.B
   if (groups > 1) cLast := cLastNext
@@ -1171,14 +1194,11 @@ object DenseMatcher {
   def treeRegisters(p: ElasParams): Int = Iterator.iterate(p.denseLanesUsed)(n => (n + treeArity(p) - 1) / treeArity(p))
     .takeWhile(_ > treeKeep(p)).length
 
-  /** The data of a pipeline stage's memory entry, read one cycle ahead: when `enter`, the entry at `addr` enters the
-    * stage; otherwise the stage keeps its entry and the read repeats its address (the memories are written only when
-    * the pipeline moves, so the repeated read returns the same data, and no output register is needed).
+  /** The read address of a pipeline stage's memory entry, read one cycle ahead: when `enter`, the entry at `addr`
+    * enters the stage; otherwise the stage keeps its entry and the read repeats its address (the memories are written
+    * only when the pipeline moves, so the repeated read returns the same data, and no output register is needed).
     */
-  def stageRead[T <: Data](mem: SyncReadMem[T], addr: UInt, enter: Bool): T = {
-    val held = RegEnable(addr, enter)
-    mem.read(Mux(enter, addr, held))
-  }
+  def stageAddress(addr: UInt, enter: Bool): UInt = Mux(enter, addr, RegEnable(addr, enter))
 
   /** floor(n / d) for a constant d and n < 2^bits, as a multiply by a rounded-up reciprocal (exact for
     * s = bits + ceil(log2 d): the error n (M d - 2^s) / (d 2^s) stays below 1/d).

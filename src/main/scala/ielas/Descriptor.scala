@@ -107,6 +107,9 @@ class Descriptor(p: ElasParams) extends Module {
   // their multiplexer would sit between the read register and the Sobel sums.
   val lines = new SlicedMem(p.maxWidth, bufferedRows * 16, "lines")
   val pastRows = RegEnable(lines.read(stepCol), step).asTypeOf(Vec(bufferedRows, UInt(16.W)))
+  // a step reads column x + 1 while s1 writes column x (frames are at least 32 wide)
+  CollisionFree.check("Descriptor: lines", lines.mems, Seq(CollisionFree.Read(stepCol, RegNext(step, false.B))),
+    Seq(CollisionFree.Write(s1Advance, s1Col)))
 
   when(s1Advance) { s1Valid := false.B }
   when(step) {

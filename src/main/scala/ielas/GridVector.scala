@@ -231,8 +231,10 @@ class GridVector(p: ElasParams) extends Module {
   val fSlot = (emitRow + fK + 3.U)(1, 0) // slot of row emitRow - 1 + fK
   val fExists = MuxLookup(fK, false.B)(Seq(0.U -> (emitRow =/= 0.U), 1.U -> true.B, 2.U -> (!markedAll || emitRow < markedRow)))
   val fAddr = address(fSlot, fCol)
-  val rdL = memL.read(Mux(markRead, address(s1.slot, s1.colL), fAddr), markRead || fIssue)
-  val rdR = memR.read(Mux(markRead, address(s1.slot, s1.colR), fAddr), markRead || fIssue)
+  val readAddrL = Mux(markRead, address(s1.slot, s1.colL), fAddr)
+  val readAddrR = Mux(markRead, address(s1.slot, s1.colR), fAddr)
+  val rdL = memL.read(readAddrL, markRead || fIssue)
+  val rdR = memR.read(readAddrR, markRead || fIssue)
   val fCapture = RegNext(fIssue, false.B)
   val fCaptureLast = RegNext(fIssue && fK === 2.U, false.B)
   val fUseL = RegNext(fExists && (validL(fSlot) >> fCol)(0))
@@ -253,7 +255,8 @@ class GridVector(p: ElasParams) extends Module {
   // The write address and the cell's valid bit are registered from s1, which keeps the address adder and the valid
   // bit select off the forwarding compare's path. A valid bit set by the write during s1 is covered by the
   // forwarding (that write is `prev` in s2); slots are only cleared when no mark for them is in flight.
-  def markView(mem: SyncReadMem[UInt], valid: Vec[UInt], rd: UInt, s1Col: UInt, col: UInt, en: Bool): Unit = {
+  /** Returns the write and whether the word read for it is used (not forwarded, of a valid cell). */
+  def markView(mem: SyncReadMem[UInt], valid: Vec[UInt], rd: UInt, s1Col: UInt, col: UInt, en: Bool): (LastWrite, Bool) = {
     val addr = RegNext(address(s1.slot, s1Col))
     val wasValid = RegNext((valid(s1.slot) >> s1Col)(0))
     val last = Wire(new LastWrite)
@@ -267,9 +270,16 @@ class GridVector(p: ElasParams) extends Module {
       mem.write(addr, last.data)
       valid(s2.slot) := valid(s2.slot) | UIntToOH(col(log2Ceil(colsMax + 1) - 1, 0), colsMax)
     }
+    (last, en && !(prev.en && prev.addr === addr) && wasValid)
   }
-  markView(memL, validL, rdL, s1.colL, s2.colL, s2.node && s2.support)
-  markView(memR, validR, rdR, s1.colR, s2.colR, s2.node && s2.support && s2.rightOk)
+  val (writeL, markUsedL) = markView(memL, validL, rdL, s1.colL, s2.colL, s2.node && s2.support)
+  val (writeR, markUsedR) = markView(memR, validR, rdR, s1.colR, s2.colR, s2.node && s2.support && s2.rightOk)
+  // A mark reads while the previous node writes, often the same cell: that write is forwarded (`prev`) and the word
+  // is not used. Emission reads rows whose marks are done (marks then go to a row two slots on).
+  CollisionFree.check("GridVector: memL", Seq(memL), Seq(CollisionFree.Read(readAddrL, markUsedL || fCapture && fUseL)),
+    Seq(CollisionFree.Write(writeL.en, writeL.addr)))
+  CollisionFree.check("GridVector: memR", Seq(memR), Seq(CollisionFree.Read(readAddrR, markUsedR || fCapture && fUseR)),
+    Seq(CollisionFree.Write(writeR.en, writeR.addr)))
   when(s2.node) {
     markedRow := s2.row
     when(s2.eol) { gw := s2.colL + 1.U } // every lattice row ends at u = W - 1; row 0 is through long before emission

@@ -462,7 +462,8 @@ object LatticeFill {
   def memorySummary(p: ElasParams): Seq[MemoryUse] = {
     val s = slots(p)
     val lists = MemoryUse("LatticeFill", "lists", s * p.latticeColsMax, idxBits(p) + p.dispBits,
-      s"$s row slots of (column, value) support lists, one SyncReadMem 1R1W")
+      s"$s row slots of (column, value) support lists, one Mem 1R1W read into a register (read-first; the write " +
+        "of the read's clock is forwarded)")
     p.fillRule match {
       case FillRule.R7 => Seq(lists,
         MemoryUse("LatticeFill", "above", p.latticeColsMax, p.dispBits, "the filled row above, SyncReadMem 1R1W"))

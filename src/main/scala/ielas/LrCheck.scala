@@ -147,6 +147,17 @@ class LrCheck(p: ElasParams) extends Module {
     lookDataR(s) := memR(s).read(lookR)
     lookDataL(s) := memL(s).read(lookL)
   }
+  // The pipeline reads only busy slots (the row they hold is complete) and the writer fills only a slot that is not
+  // busy. Port B reads every slot at the lookups' columns, so it meets the writes of the slot being filled, unused.
+  for (s <- 0 until slots) {
+    val w = CollisionFree.Write(write && wSlot === s.U, writeAddr)
+    val seqUsed = advance && s1Valid && s1Slot === s.U
+    val lookUsed = advance && s2Valid && s2Slot === s.U
+    CollisionFree.check(s"LrCheck: memL($s)", Seq(memL(s)),
+      Seq(CollisionFree.Read(seqAddr, seqUsed), CollisionFree.Read(lookL, lookUsed)), Seq(w))
+    CollisionFree.check(s"LrCheck: memR($s)", Seq(memR(s)),
+      Seq(CollisionFree.Read(seqAddr, seqUsed), CollisionFree.Read(lookR, lookUsed)), Seq(w))
+  }
 
   // ---- s1b: bounds of the lookups ----
   val dL = s1bDL

@@ -89,11 +89,12 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   val extraSlot: UInt = WireDefault(0.U(sW.W))
   val extraWord: UInt = WireDefault(0.U(wordBits.W))
   val writeWord: UInt = WireDefault(inWord)
+  private val readAddrs = (0 until B).map(slotReadAddress)
+  private val writeEnables = (0 until B).map(s => in.fire && inSlot === s.U || extraWrite && extraSlot === s.U)
   /** Every slot's word at column outCol (read one cycle ahead at outColNext). */
   val column: Vec[UInt] = VecInit(mems.zipWithIndex.map { case (m, s) => // one write port per slot, always at `col`
-    val here = in.fire && inSlot === s.U
-    when(here || extraWrite && extraSlot === s.U) { m.write(col, Mux(here, writeWord, extraWord)) }
-    RegNext(m.read(slotReadAddress(s)))
+    when(writeEnables(s)) { m.write(col, Mux(in.fire && inSlot === s.U, writeWord, extraWord)) }
+    RegNext(m.read(readAddrs(s)))
   })
   val inRowDone: Bool = in.fire && in.bits.eol
   when(in.fire) {
@@ -184,6 +185,13 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   }
   /** Row v at column outCol. */
   def centre: UInt = column(outSlot)
+  // The check of the argument above: every slot is read every clock, and the word of a window row that exists is
+  // used when the output takes the pixel (the steps use no other word); such a read never meets a write.
+  for (s <- 0 until B) {
+    val used = advancing && (-above to below).map(k => slotAt(k) === s.U && windowTap(k)._2).reduce(_ || _)
+    CollisionFree.check(s"RowRing: slot $s", Seq(mems(s)), Seq(CollisionFree.Read(readAddrs(s), used)),
+      Seq(CollisionFree.Write(writeEnables(s), col)))
+  }
   /** Call when output pixel (v, outCol) is taken. */
   def advanceOut(): Unit = {
     advancing := true.B
@@ -285,10 +293,10 @@ class PostRowGaps(p: ElasParams) extends Module {
   val x = io.in.bits.data
   val startRow = ring.col === 0.U
   val prevAny = !startRow && inAny
+  val runWrite = io.in.fire && x >= 0.S && prevAny && ring.col > inPrev + 1.U
+  val runWriteAddr = runAddr(ring.inSlot, inPrev + 1.U)
+  when(runWrite) { runEnd.write(runWriteAddr, Cat(ring.col, x.asUInt)) }
   when(io.in.fire && x >= 0.S) {
-    when(prevAny && ring.col > inPrev + 1.U) {
-      runEnd.write(runAddr(ring.inSlot, inPrev + 1.U), Cat(ring.col, x.asUInt))
-    }
     when(!prevAny) { firstPos(ring.inSlot) := ring.col; firstVal(ring.inSlot) := x }
     lastPos(ring.inSlot) := ring.col; lastVal(ring.inSlot) := x
     inAny := true.B; inPrev := ring.col
@@ -310,9 +318,13 @@ class PostRowGaps(p: ElasParams) extends Module {
   // read as the pixel leaves the ring, into stage 1 (the read register loads with stage 1), and registered again in
   // stage 2 before the arithmetic. Read a cycle ahead for the next pixel, the address waited for this pixel's word
   // from the ring's block RAM (its sign: valid or not), a block-RAM-to-block-RAM path (95 MHz at kitti on the ECP5).
-  val entry1 = RegEnable(runEnd.read(runAddr(s, outPrevPos + 1.U)), adv)
+  val runReadAddr = runAddr(s, outPrevPos + 1.U)
+  val entry1 = RegEnable(runEnd.read(runReadAddr), adv)
   def x16(d: SInt): SInt = (d << 4).asSInt
   val go = ring.rowReady && adv
+  // a pixel that leaves (go) is of a complete row, so the input writes the other slot
+  CollisionFree.check("PostRowGaps: runEnd", Seq(runEnd), Seq(CollisionFree.Read(runReadAddr, RegNext(go, false.B))),
+    Seq(CollisionFree.Write(runWrite, runWriteAddr)))
   when(go) {
     when(c >= 0.S) { outAny := true.B; outPrevPos := u; outPrevVal := c }.elsewhen(u === 0.U) { outAny := false.B }
     ring.advanceOut()
@@ -402,7 +414,10 @@ class PostColumnGaps(p: ElasParams) extends Module {
   val x = io.in.bits.data
   val r = Mux(io.in.bits.sof && inCol === 0.U, 0.U, inRow)
   val u = Mux(io.in.bits.sof, 0.U, inCol)
-  val lw = RegNext(lastMem.read(Mux(io.in.fire, Mux(io.in.bits.eol, 0.U, u + 1.U), inCol)))
+  val lastReadAddr = Mux(io.in.fire, Mux(io.in.bits.eol, 0.U, u + 1.U), inCol)
+  val lw = RegNext(lastMem.read(lastReadAddr))
+  CollisionFree.check("PostColumnGaps: lastMem", Seq(lastMem), Seq(CollisionFree.Read(lastReadAddr, true.B)),
+    Seq(CollisionFree.Write(io.in.fire, u)))
   val lAny = r =/= 0.U && lw(p.rowBits + 16)
   val lRow = lw(p.rowBits + 15, 16)
   val lVal = lw(15, 0).asSInt
@@ -484,6 +499,9 @@ class PostColumnGaps(p: ElasParams) extends Module {
     o.load(value, sof2, eol2, eol2 && isLast2, isLast2, width2)
     activeMem.write(u2, Mux(wMark2, Cat(true.B, wEnd2, wValue2.asUInt), Mux(v2 === 0.U, 0.U, a2)))
   }
+  // the read is 1 to 3 pixels after the write in raster order, never the same column (rows are at least 32 wide)
+  CollisionFree.check("PostColumnGaps: activeMem", Seq(activeMem), Seq(CollisionFree.Read(ring.outColNext, true.B)),
+    Seq(CollisionFree.Write(oAdv && ov, u2)))
 }
 
 /** The output framing of a filter step's pixel (what [[PostFilters.OutReg.load]] takes besides the value). */

@@ -566,6 +566,10 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val upVal = upWord(vW + idW - 1, idW).asSInt
   val upId = upWord(idW - 1, 0)
   // the row's start bookkeeping (a cycle after T; A1 reads R_k's flags a cycle later)
+  val dwAddr = addr(inA0.sl.d, inA0.col) // the delay line's write address
+  // upRows: the write is at the pixel taken a clock ago (upPos - 1), the read frameW > 1 pixels back
+  CollisionFree.check("speckle: upRows", Seq(upRows), Seq(CollisionFree.Read(upPos - frameW, true.B)),
+    Seq(CollisionFree.Write(inA0v, inA0.pos)))
   when(inA0v && inA0.rowStart) {
     val d = inA0.sl.d
     writeMeta(d, virtual = false.B, first = inA0.row === 0.U, last = inA0.row === frameH - 1.U,
@@ -577,7 +581,6 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   when(inA0v) {
     cnt := cntBase + newRun.asUInt
     when(newRun) { runId := nodeNow }
-    val dwAddr = addr(inA0.sl.d, inA0.col)
     for ((m, i) <- delay.zipWithIndex) when(delayChunk(dwAddr) === i.U) { m.write(dwAddr(delayLoW - 1, 0), Cat(inA0.v.asUInt, thisRun)) }
     upRows.write(inA0.pos, Cat(inA0.v.asUInt, thisRun))
     when(inA0.lastCol) { metaN(inA0.sl.d) := cntBase + newRun.asUInt }
@@ -955,7 +958,13 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
     val onK = Mux(dRowEnd, succK, p1K)
     when(issue) { nowK := onK; p1K := ((onK ^ k) + 1.U) ^ k }
     when(dD.incW) { succK := VecInit((0 until ND).map(j => rowBase((j + 1) % ND)(delayLoW - 1, 0) ^ k))(dD.succ) }
-    RegNext(RegNext(m.read(Mux(issue, onK, nowK) ^ k)))
+    val readAddr = Mux(issue, onK, nowK) ^ k
+    // D reads rows A has finished (aNext >= dNext + 1) and A writes a later row: the word of the pixel D issues next
+    // clock never meets a write; the other chunks' reads and D's early reads of the next row's column 0 do, unused
+    CollisionFree.check(s"speckle: delay($i)", Seq(m),
+      Seq(CollisionFree.Read(readAddr, issue && delayChunk(dAddrNow) === i.U)),
+      Seq(CollisionFree.Write(inA0v && delayChunk(dwAddr) === i.U, dwAddr(delayLoW - 1, 0))))
+    RegNext(RegNext(m.read(readAddr)))
   }
   val dChunkNow = RegNext(RegNext(delayChunk(Mux(issue, dAddrOn, dAddrNow))))
   val word = VecInit(dChunkWords)(dChunkNow) // the word of the pixel issued a clock ago

@@ -18,7 +18,8 @@ class SlicedMem(depth: Int, width: Int, name: String) {
   /** The slices' widths, least significant first. */
   val widths: Seq[Int] = Seq.tabulate(count)(i => width / count + (if (i < width % count) 1 else 0))
   private val lows = widths.scanLeft(0)(_ + _).init
-  private val mems = widths.zipWithIndex.map { case (w, i) =>
+  /** The slices. */
+  val mems: Seq[Mem[UInt]] = widths.zipWithIndex.map { case (w, i) =>
     Mem(depth, UInt(w.W)).suggestName(if (count == 1) name else s"${name}_s$i")
   }
 

@@ -189,6 +189,10 @@ class BlockQueue[T <: Data](gen: T, val entries: Int) extends Module {
   owed := owed + issue.asUInt - io.out.fire.asUInt
   output.io.enq.valid := inRead
   output.io.enq.bits := mem.read(readPtr)
+  // a used read (issue) needs a stored beat, so writePtr = readPtr + stored is another entry; an empty queue's read
+  // meets the write of its first beat, and is not issued
+  CollisionFree.check("BlockQueue", Seq(mem), Seq(CollisionFree.Read(readPtr, inRead)),
+    Seq(CollisionFree.Write(io.in.fire, writePtr)))
   assert(!inRead || output.io.enq.ready, "BlockQueue: output queue full")
   io.out <> output.io.deq
 }

@@ -203,7 +203,7 @@ class SupportMatcher(p: ElasParams) extends Module {
   // parity (two 128-bit multiplexers per kind) instead of once per bank.
   val leftData = RegNext(io.in.bits.data.left)
   val rightData = RegNext(RegNext(io.in.bits.data.right))
-  for ((tracker, kind) <- Seq(topRow, bottomRow).zipWithIndex) {
+  val rowWrites = Seq(topRow, bottomRow).zipWithIndex.map { case (tracker, kind) =>
     val hit = capture && tracker.hit
     val leftPending = RegNext(hit, false.B)
     val leftBank = RegNext(capBank)
@@ -214,10 +214,11 @@ class SupportMatcher(p: ElasParams) extends Module {
       val addr = RegNext(Mux(nowLeft, rowAddress(0.U, tracker.slot, capWord), leftAddr + viewWords.U))
       (addr, Mux(writeLeft, leftData, rightData))
     }
-    for (b <- 0 until banks) { // one write port per memory
+    (0 until banks).map { b => // one write port per memory
       val write = RegNext(hit && capBank === b.U || leftPending && leftBank === b.U, false.B)
       val (addr, data) = byParity(b % 2)
       when(write) { rowMem(kind)(b).write(addr, data) }
+      CollisionFree.Write(write, addr)
     }
   }
   // texture test of the centre rows, one cycle later: half sums registered, then their sum compared
@@ -309,7 +310,8 @@ class SupportMatcher(p: ElasParams) extends Module {
   val data = (0 until 2).map(kind => (0 until banks).map(b => RegNext(RegNext(rowMem(kind)(b).read(bankAddrReg(b))))))
   /** x SupportMatcher.readLatency cycles later: the issue cycle's view of a block, aligned with its data. */
   def atData[T <: Data](x: T): T = ShiftRegister(x, SupportMatcher.readLatency)
-  val texBits = texMem.read(texAddress(walkSlot, uRef))
+  val texReadAddr = texAddress(walkSlot, uRef)
+  val texBits = texMem.read(texReadAddr)
 
   // ---- reference descriptors (columns c0 and c0 + 2r of a reference read), kept in registers ----
   /** The word of column `col`'s bank: a binary multiplexer tree (4:1 per LUT level), which maps to fewer LUTs than a
@@ -645,7 +647,20 @@ class SupportMatcher(p: ElasParams) extends Module {
   when(state === sSweep && !phaseLeft && lastBlock && pendBusy) { hold := true.B }
 
   // decision of the pending node: its right result, then the tests, then the output register
-  when(RegNext(state === sSweep && issue && !phaseLeft && lastBlock, false.B)) { pendTexR := texBits(1) } // at u'
+  val texRTaken = RegNext(state === sSweep && issue && !phaseLeft && lastBlock, false.B)
+  when(texRTaken) { pendTexR := texBits(1) } // at u'
+  // No used read meets a write: used reads (a reference read, a sweep's blocks) read only the walker's slot once its
+  // rows are complete; captures write the slots of later lattice rows, and the last columns' registered writes land
+  // before the first used read (node 0 is never searched). The reads issued every clock while the walker waits, and
+  // a block read's banks outside the sweep, meet captures, unused. The texture bits likewise: their row's centre row
+  // was written long before; the read at a stale column while the walker waits is not taken.
+  val rowReadUsed = RegNext(refRead || RegNext(issue, false.B), false.B)
+  for (kind <- 0 until 2; b <- 0 until banks)
+    CollisionFree.check(s"SupportMatcher: rowMem($kind)($b)", Seq(rowMem(kind)(b)),
+      Seq(CollisionFree.Read(bankAddrReg(b), rowReadUsed)), Seq(rowWrites(kind)(b)))
+  CollisionFree.check("SupportMatcher: texMem", Seq(texMem), Seq(CollisionFree.Read(texReadAddr,
+    RegNext(enqueue, false.B) || texRTaken)),
+    Seq(CollisionFree.Write(texWrite, texAddr)))
   when(rightDone) { pendRight := merged; pendStage := 1.U }
   when(pendStage === 1.U) {
     val diff = Mux(pendLeft.d1 > pendRight.d1, pendLeft.d1 - pendRight.d1, pendRight.d1 - pendLeft.d1)

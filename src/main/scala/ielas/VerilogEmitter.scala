@@ -13,11 +13,14 @@ object VerilogEmitter {
 
   /** One module per file in `dir`. Only firtool writes files (--split-verilog -o dir): Chisel 6.7's
     * emitSystemVerilog rejects --target-dir, and emitSystemVerilogFile would overwrite the top's file with the
-    * (empty) string it returns.
+    * (empty) string it returns. The memories [[CollisionFree]] checks are then marked `(* no_rw_check *)`.
     */
   def emit(gen: => chisel3.RawModule, dir: Path): Unit = {
     java.nio.file.Files.createDirectories(dir)
-    _root_.circt.stage.ChiselStage.emitSystemVerilog(gen, Array.empty[String], firtoolOptions ++ Array("-o", dir.toString))
+    val marks = CollisionFree.recorded {
+      _root_.circt.stage.ChiselStage.emitSystemVerilog(gen, Array.empty[String], firtoolOptions ++ Array("-o", dir.toString))
+    }
+    CollisionFree.markVerilog(dir, marks)
   }
 
   /** The IElas top (and with `axi` the [[IElasAxi]] wrapper beside it) into `dir`. The .sv files already in `dir`
