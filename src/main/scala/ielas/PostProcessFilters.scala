@@ -20,7 +20,8 @@ class PostBeat(bits: Int) extends Bundle {
   * memory (SyncReadMem) per slot. The input writes rows in order; output pixel (v, u) is read once rows
   * v .. v + below - 1 have arrived and row v + below up to column u + 1 (or the frame's last row is among them); with
   * below = 0, once row v is complete. The input stalls only when the slot it needs still holds a row the window reads.
-  * Build it inside a Module; `word` is what a slot stores per pixel. The output side reads every slot at one column:
+  * Build it inside a Module; `word` is what a slot stores per pixel; `centreOnly`: the step reads row v alone (the
+  * rows below only make it ready), not the [[window]]. The output side reads every slot at one column:
   * the column it will hold next cycle ([[outColNext]], registered into the memories' read ports one cycle ahead).
   * No read that is used meets a write of the same cycle, so nothing is forwarded: a row being written is read only
   * 2 columns behind the input (a column written in cycle t is read from t + 1 on), and markers go to columns the
@@ -30,7 +31,8 @@ class PostBeat(bits: Int) extends Bundle {
   * registers formed a cycle ahead, so the take only selects the next read address (the early test sees the input a
   * cycle late: +1 clock).
   */
-class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: DecoupledIO[PostBeat], inWord: UInt) {
+class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: DecoupledIO[PostBeat], inWord: UInt,
+    centreOnly: Boolean = false) {
   val B: Int = above + below + 2
   private val W = p.maxWidth
   private val sW = log2Ceil(B)
@@ -174,7 +176,10 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
     outColP1 := Mux(atLastCol, 1.U, outColP1 + 1.U)
   }
   /** Window rows v + k, k = -above .. below, at column outCol; with whether that row exists in the frame. */
-  def window: Seq[(UInt, Bool)] = (-above to below).map(k => windowTap(k))
+  def window: Seq[(UInt, Bool)] = {
+    require(!centreOnly, "RowRing: the window of a ring built centreOnly")
+    (-above to below).map(k => windowTap(k))
+  }
   private def windowTap(k: Int): (UInt, Bool) = {
     val word = column(slotAt(k))
     val exists =
@@ -186,9 +191,11 @@ class RowRing(p: ElasParams, wordBits: Int, above: Int, below: Int, in: Decouple
   /** Row v at column outCol. */
   def centre: UInt = column(outSlot)
   // The check of the argument above: every slot is read every clock, and the word of a window row that exists is
-  // used when the output takes the pixel (the steps use no other word); such a read never meets a write.
+  // used when the output takes the pixel (with `centreOnly`, as the column-gap step builds it, row v's alone: the
+  // rows below only count towards readiness and take markers); such a read never meets a write.
   for (s <- 0 until B) {
-    val used = advancing && (-above to below).map(k => slotAt(k) === s.U && windowTap(k)._2).reduce(_ || _)
+    val usedRows = if (centreOnly) Seq(0) else -above to below
+    val used = advancing && usedRows.map(k => slotAt(k) === s.U && windowTap(k)._2).reduce(_ || _)
     CollisionFree.check(s"RowRing: slot $s", Seq(mems(s)), Seq(CollisionFree.Read(readAddrs(s), used)),
       Seq(CollisionFree.Write(writeEnables(s), col)))
   }
@@ -279,7 +286,7 @@ class PostRowGaps(p: ElasParams) extends Module {
     val out = Decoupled(new PostBeat(16))
   })
   private val gap = math.min(p.ipolGapWidth, p.maxWidth)
-  val ring = new RowRing(p, vW, 0, 0, io.in, io.in.bits.data.asUInt)
+  val ring = new RowRing(p, vW, 0, 0, io.in, io.in.bits.data.asUInt, centreOnly = true)
   private val B = ring.B
   // One memory for both slots, addressed {slot, column}: the read address is then two registers and an increment.
   // Read-first: no read meets a write (below).
@@ -462,7 +469,7 @@ class PostColumnGaps(p: ElasParams) extends Module {
   }
   ringIn.valid := s2.valid
   ringIn.bits := s2.bits.beat
-  val ring = new RowRing(p, wordBits, 0, G, ringIn, 0.U)
+  val ring = new RowRing(p, wordBits, 0, G, ringIn, 0.U, centreOnly = true)
   ring.writeWord := s2.bits.writeWord
   ring.extraWrite := ringIn.fire && s2.bits.extra
   ring.extraSlot := ring.wrapSub(ring.inSlot, s2.bits.back)
