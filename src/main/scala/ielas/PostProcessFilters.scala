@@ -237,9 +237,11 @@ class RowWindow(p: ElasParams, bits: Int, in: DecoupledIO[PostBeat]) {
   // Each entry's next value, chosen by the take among its own word, the next entry's and the input; the entry the
   // input goes to is decoded from `pending` (a register) for both cases, so the take only selects (it is not the
   // index of a write that is decoded after it).
+  // (the input fires only with pending < 5, that is with inReady: for an entry it can reach, in.valid and the
+  // pending compare imply the fire, so the selects need neither the ready register nor a decode of pending = 5)
   for (i <- 0 until N) {
-    val inHereTake = in.fire && (if (i >= 3) pending === (i - 3).U else false.B)
-    val inHereKeep = in.fire && (if (i >= 4) pending === (i - 4).U else false.B)
+    val inHereTake = in.valid && (if (i >= 3 && i - 3 < 5) pending === (i - 3).U else false.B)
+    val inHereKeep = in.valid && (if (i >= 4 && i - 4 < 5) pending === (i - 4).U else false.B)
     val shifted = if (i < N - 1) ent(i + 1) else ent(i)
     ent(i) := Mux(take, Mux(inHereTake, in.bits, shifted), Mux(inHereKeep, in.bits, ent(i)))
   }
