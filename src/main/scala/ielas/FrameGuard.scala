@@ -73,6 +73,7 @@ class FrameGuard(p: ElasParams) extends Module {
   val held = Reg(new PixelPair)
   val heldWidth = Reg(UInt(p.colBits.W))
   val heldHeight = Reg(UInt(p.rowBits.W))
+  val heldLegal = Reg(Bool()) // its size is legal: the start branch then selects a flip-flop, not a compare of a mux
 
   val output = new OutputRegister(io.out)
   // The aborted beats wait in two registers (a Queue would be a LUT-RAM): head goes out, tail waits behind it.
@@ -94,6 +95,7 @@ class FrameGuard(p: ElasParams) extends Module {
   val src = Mux(heldValid, held, io.in.bits)
   val srcWidth = Mux(heldValid, heldWidth, io.frameWidth)
   val srcHeight = Mux(heldValid, heldHeight, io.frameHeight)
+  val srcLegal = Mux(heldValid, heldLegal, FrameSize.isLegal(p, io.frameWidth, io.frameHeight))
 
   val setError = WireDefault(false.B)
   val malformed = WireDefault(false.B) // this step finds the current frame malformed
@@ -137,13 +139,14 @@ class FrameGuard(p: ElasParams) extends Module {
         held := src
         heldWidth := srcWidth
         heldHeight := srcHeight
+        heldLegal := srcLegal
         padFrame := true.B
         dropLine := false.B
         malformed := true.B
         cause(FrameGuard.Cause.earlySof) := true.B
       }.elsewhen(src.sof) { // start of frame
         dropLine := false.B
-        when(FrameSize.isLegal(p, srcWidth, srcHeight)) {
+        when(srcLegal) {
           active := true.B
           afterFrame := false.B
           starting := true.B
@@ -175,17 +178,16 @@ class FrameGuard(p: ElasParams) extends Module {
   val flaggedNow = flagged && !starting
   abortedEnq := canStep && (malformed || frameEnd) && !flaggedNow
   abortedEnqBit := malformed
+  // The bits load whenever their slot is free or moves, from the tail or the new beat (a slot left empty holds a
+  // value never read): their enables then leave out the step's decision, the whole top's worst path at tiny-w3-c8
+  when(!headValid || io.aborted.fire) { headBit := Mux(headValid && tailValid, tailBit, abortedEnqBit) }
+  when(!tailValid || io.aborted.fire) { tailBit := abortedEnqBit }
   when(io.aborted.fire) {
     headValid := tailValid
-    headBit := tailBit
     tailValid := false.B
   }
   when(abortedEnq) {
-    when(!headValid || (io.aborted.fire && !tailValid)) {
-      headValid := true.B; headBit := abortedEnqBit
-    }.otherwise {
-      tailValid := true.B; tailBit := abortedEnqBit
-    }
+    when(!headValid || (io.aborted.fire && !tailValid)) { headValid := true.B }.otherwise { tailValid := true.B }
   }
   flagged := flaggedNow || (canStep && (malformed || frameEnd))
   when(malformed) { setError := true.B }

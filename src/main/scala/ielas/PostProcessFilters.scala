@@ -302,9 +302,14 @@ class PostRowGaps(p: ElasParams) extends Module {
   val x = io.in.bits.data
   val startRow = ring.col === 0.U
   val prevAny = !startRow && inAny
-  val runWrite = io.in.fire && x >= 0.S && prevAny && ring.col > inPrev + 1.U
-  val runWriteAddr = runAddr(ring.inSlot, inPrev + 1.U)
-  when(runWrite) { runEnd.write(runWriteAddr, Cat(ring.col, x.asUInt)) }
+  // The run table write lands a clock late, from registers: its enable, formed from the input's start-of-frame
+  // select and a column compare, drove every block RAM's write enable (PostProcess's worst path at kitti, 8.3 ns of
+  // routing). The entry is first read for the row's output, which starts a clock after the row's last input at the
+  // earliest, at its column 0, where the entry is not used (below).
+  val runWrite = RegNext(io.in.fire && x >= 0.S && prevAny && ring.col > inPrev + 1.U, false.B)
+  val runWriteAddr = RegNext(runAddr(ring.inSlot, inPrev + 1.U))
+  val runWriteData = RegNext(Cat(ring.col, x.asUInt))
+  when(runWrite) { runEnd.write(runWriteAddr, runWriteData) }
   when(io.in.fire && x >= 0.S) {
     when(!prevAny) { firstPos(ring.inSlot) := ring.col; firstVal(ring.inSlot) := x }
     lastPos(ring.inSlot) := ring.col; lastVal(ring.inSlot) := x
@@ -331,9 +336,10 @@ class PostRowGaps(p: ElasParams) extends Module {
   val entry1 = RegEnable(runEnd.read(runReadAddr), adv)
   def x16(d: SInt): SInt = (d << 4).asSInt
   val go = ring.rowReady && adv
-  // a pixel that leaves (go) is of a complete row, so the input writes the other slot
-  CollisionFree.check("PostRowGaps: runEnd", Seq(runEnd), Seq(CollisionFree.Read(runReadAddr, RegNext(go, false.B))),
-    Seq(CollisionFree.Write(runWrite, runWriteAddr)))
+  // a pixel that leaves (go) is of a complete row, so the input writes the other slot, but for the late write of the
+  // row's last run, which may meet the row's column 0: the entry is used only after a valid pixel (pAny)
+  CollisionFree.check("PostRowGaps: runEnd", Seq(runEnd),
+    Seq(CollisionFree.Read(runReadAddr, RegNext(go && pAny, false.B))), Seq(CollisionFree.Write(runWrite, runWriteAddr)))
   when(go) {
     when(c >= 0.S) { outAny := true.B; outPrevPos := u; outPrevVal := c }.elsewhen(u === 0.U) { outAny := false.B }
     ring.advanceOut()
