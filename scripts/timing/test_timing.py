@@ -292,6 +292,21 @@ class SecondPassTest(unittest.TestCase):
         self.assertEqual(row["wall_seconds"], 8.0)  # both passes and the 7-series run
         self.assertFalse(row["cached"])
 
+    def test_second_pass_below_the_first_keeps_the_first(self):
+        first = {"status": "ok", "router": "router2", "fmax_mhz": 100.6, "cached": True, "seconds": {"nextpnr": 1.0},
+                 "critical_path": {"start": "a", "end": "b"}}
+        second = {"status": "ok", "router": "router2", "fmax_mhz": 98.5, "cached": False, "seconds": {"nextpnr": 2.0},
+                  "critical_path": {"start": "c", "end": "d"}}
+        r, calls, flow = self.run_with(first, second)
+        self.assertEqual([k for k, _ in calls], ["ecp5", "ecp5r"])
+        self.assertEqual(r["fmax_mhz"], 100.6)
+        self.assertEqual(r["critical_path"]["start"], "a")
+        self.assertEqual(r["second_pass"]["fmax_mhz"], 98.5)
+        self.assertEqual(flow.ecp5_cells(r)[0], "100.6 (1st pass; 2nd 98.5)")
+        row = flow.timing_row("M", 1, False, {"cached": True, "seconds": 5}, r)
+        self.assertEqual(row["wall_seconds"], 8.0)  # both passes and the 7-series run
+        self.assertFalse(row["cached"])
+
     def test_fast_or_router1_or_failed_module_keeps_first_pass(self):
         for first in ({"status": "ok", "router": "router2", "fmax_mhz": 105.0},
                       {"status": "ok", "router": "router1", "fmax_mhz": 100.0},
