@@ -156,7 +156,8 @@ synth: check-inputs deps-synth ## Yosys resource table for one configuration
 timing: CONFIG = small
 # Modules that do not fit the LFE5U-85F at CONFIG, placed again where they do (CONFIG:MODULE,...): at a named
 # configuration, or at one derived from a named one (TIMING_DERIVE, NAME:BASE:KEY=VALUE as `sbt "run config"` takes
-# it; written to build/configs-extra/NAME.json). At small: the dense matcher at small-c4, the whole top at a 64x48
+# it; written to build/configs-extra/NAME.json). At small: the dense matcher also at small-c4 (at small it fills all
+# 208 block RAMs; it did not fit when this was set up), the whole top at a 64x48
 # small-w3 with cyclesPerPixel 8 (tiny-w3-c8, 78 % of the part's LUT4s; small needs more than the part has, and
 # small-w3-c8 at 84 % did not route).
 comma := ,

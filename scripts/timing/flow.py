@@ -363,7 +363,7 @@ def ecp5_result(design, module, salt, args):
              "cached": e["cached"], "nextpnr_cmd": e.get("nextpnr_cmd")}
     if r.get("status") != "ok":
         e = dict(e)
-        e["second_pass_error"] = r.get("error", r.get("status"))
+        e["second_pass_error"] = "not_run" if r.get("status") == "not_run" else r.get("error", r.get("status"))
         return e
     if r["fmax_mhz"] < e["fmax_mhz"]:
         e = dict(e)
@@ -439,6 +439,8 @@ def ecp5_cells(e):
         fm += f" (2nd pass; 1st {e['first_pass']['fmax_mhz']:.1f})"
     elif e.get("second_pass"):
         fm += f" (1st pass; 2nd {e['second_pass']['fmax_mhz']:.1f})"
+    elif e.get("second_pass_error") == "not_run":  # --cached-only, and the second pass is not in the cache
+        fm += " (2nd pass not run)"
     elif e.get("second_pass_error"):
         fm += f" (2nd pass failed: {e['second_pass_error']})"
     return fm, (f"`{cp['start']}` -> `{cp['end']}`" if cp else "–")

@@ -347,6 +347,8 @@ class SecondPassTest(unittest.TestCase):
         r, _, flow = self.run_with(first, {"status": "error", "error": "time limit"})
         self.assertEqual(r["fmax_mhz"], 99.0)
         self.assertEqual(flow.ecp5_cells(r)[0], "99.0 (2nd pass failed: time limit)")
+        r, _, flow = self.run_with(first, {"status": "not_run", "error": "no cached result"})
+        self.assertEqual(flow.ecp5_cells(r)[0], "99.0 (2nd pass not run)")
 
 
 if __name__ == "__main__":
