@@ -359,19 +359,19 @@ def ecp5_result(design, module, salt, args):
     freq = ripup_freq(e["fmax_mhz"])
     r = guarded(design, module, "ecp5r", f"{salt}|{freq:g}|tmg-ripup", args,
                 lambda d, m, w, a, k: ecp5_run(d, m, w, a, k, second_pass=freq, first_key=e.get("key")))
-    first = {"fmax_mhz": e["fmax_mhz"], "critical_path": e.get("critical_path"), "seconds": e.get("seconds", {}),
-             "cached": e["cached"], "nextpnr_cmd": e.get("nextpnr_cmd")}
+    def summary(x):  # what a row keeps of the pass it does not report
+        return {"fmax_mhz": x["fmax_mhz"], "critical_path": x.get("critical_path"), "seconds": x.get("seconds", {}),
+                "cached": x["cached"], "nextpnr_cmd": x.get("nextpnr_cmd")}
     if r.get("status") != "ok":
         e = dict(e)
         e["second_pass_error"] = "not_run" if r.get("status") == "not_run" else r.get("error", r.get("status"))
         return e
     if r["fmax_mhz"] < e["fmax_mhz"]:
         e = dict(e)
-        e["second_pass"] = {"fmax_mhz": r["fmax_mhz"], "critical_path": r.get("critical_path"),
-                            "seconds": r.get("seconds", {}), "cached": r["cached"], "nextpnr_cmd": r.get("nextpnr_cmd")}
+        e["second_pass"] = summary(r)
         return e
     r = dict(r)
-    r["first_pass"] = first
+    r["first_pass"] = summary(e)
     return r
 
 
@@ -659,12 +659,12 @@ def markdown(report):
 def timing_row(module, instances, is_top, x, e, also=None):
     """One row of the page: a module's 7-series and ECP5 results (`also`: the configuration it was placed at instead
     of --config)."""
-    first = e.get("first_pass") or e.get("second_pass") or {"seconds": {}, "cached": True}  # the other pass
+    other = e.get("first_pass") or e.get("second_pass") or {"seconds": {}, "cached": True}  # the pass not reported
     run_s = ((0 if x["cached"] else x.get("seconds", 0)) + (0 if e["cached"] else sum(e["seconds"].values())) +
-             (0 if first["cached"] else sum(first["seconds"].values())))
+             (0 if other["cached"] else sum(other["seconds"].values())))
     row = {"module": module, "instances": instances, "is_top": is_top, "xc7": x, "ecp5": e,
-           "cached": x["cached"] and e["cached"] and first["cached"], "seconds_this_run": run_s,
-           "wall_seconds": x.get("seconds", 0) + sum(e.get("seconds", {}).values()) + sum(first["seconds"].values())}
+           "cached": x["cached"] and e["cached"] and other["cached"], "seconds_this_run": run_s,
+           "wall_seconds": x.get("seconds", 0) + sum(e.get("seconds", {}).values()) + sum(other["seconds"].values())}
     if also:
         row["also"] = also
     return row
