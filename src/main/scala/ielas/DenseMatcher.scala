@@ -431,8 +431,12 @@ class DenseMatcher(p: ElasParams) extends Module {
   io.desc.ready := upAdv && !flushing
   val slot = upAdv && (flushing || io.desc.valid)
   val slotSof = !flushing && io.desc.bits.sof
-  val slotL = Mux(flushing, 0.U, io.desc.bits.data.left)
-  val slotR = Mux(flushing, 0.U, io.desc.bits.data.right)
+  // flushing's copy for the 2 x descBits data multiplexers, held inverted so Yosys keeps it apart: one net into those
+  // and the handshake was the whole top's critical path (4.1 ns of routing to its first LUT on the ECP5)
+  val descLive = RegInit(true.B)
+  assert(descLive === !flushing, "DenseMatcher: descLive differs from !flushing")
+  val slotL = Mux(descLive, io.desc.bits.data.left, 0.U)
+  val slotR = Mux(descLive, io.desc.bits.data.right, 0.U)
 
   // descriptor rings, all written at the stream position's address `wp` (see "Candidate lanes")
   val wp = RegInit(0.U(ringW.W))
@@ -477,11 +481,11 @@ class DenseMatcher(p: ElasParams) extends Module {
   val aRefAddr = DenseMatcher.stageAddress(wp - D.U, slot && !slotSof && lagDone && genActive)
   val aRef = refRing.read(aRefAddr)
 
-  when(io.desc.fire && io.desc.bits.eof) { flush := D.U; flushing := true.B }
+  when(io.desc.fire && io.desc.bits.eof) { flush := D.U; flushing := true.B; descLive := false.B }
   when(slot) {
     when(flushing) {
       flush := flush - 1.U
-      when(flush === 1.U) { flushing := false.B }
+      when(flush === 1.U) { flushing := false.B; descLive := true.B }
     }
     when(slotSof) {
       lag := 1.U
@@ -1133,7 +1137,7 @@ class DenseMatcher(p: ElasParams) extends Module {
       firstOf(firstMin(l), firstMin(r))
     }
   // Registered levels of the tree: contiguous blocks of lanes keep the candidate order, so the first minimum of the
-  // blocks' first minima is the first minimum of all. The last level leaves at most 4 values (groups = 1) or one
+  // blocks' first minima is the first minimum of all. The last level leaves at most 2 values (groups = 1) or one
   // (groups > 1: its compare with the earlier groups' minimum closes the loop through bestSoFar on its own).
   var treeValid: Bool = fValid
   var treeTail: Tail = fTail
@@ -1176,16 +1180,18 @@ object DenseMatcher {
     */
   def ringDepth(p: ElasParams): Int = 1 << log2Ceil(p.dispMax + 4 + ownerStages + planeStages)
 
-  /** Values the first-minimum tree's last register level leaves per view: at most 4 (one candidate group per
-    * pixel) or 1 (several groups: the running minimum over the groups then takes one compare per clock).
+  /** Values the first-minimum tree's last register level leaves per view: 2 (one candidate group per pixel: the
+    * last compare-select feeds the output queue) or 1 (several groups: the running minimum over the groups then takes
+    * one compare per clock).
     */
-  def treeKeep(p: ElasParams): Int = if (p.denseGroups == 1) 4 else 1
+  def treeKeep(p: ElasParams): Int = if (p.denseGroups == 1) 2 else 1
 
-  /** Lanes a register level of the tree reduces to one: 4 (two compare-selects) with one candidate group per pixel;
-    * 2 with several, where the lanes are few and a register per compare-select costs little (two compare-selects
-    * in one step map to 7-8 LUT levels there, Yosys 0.23).
+  /** Lanes a register level of the tree reduces to one: 2, one compare-select per clock. Arity 4 (two compare-selects
+    * per level, 7-8 LUT levels on the 7-series with Yosys 0.23) held the dense matcher at `small` to 63 MHz on the
+    * ECP5, where its lanes spread over every block RAM of the part; at 25 lanes arity 2 costs 17 more registered
+    * (d, cost) pairs per view.
     */
-  def treeArity(p: ElasParams): Int = if (p.denseGroups == 1) 4 else 2
+  def treeArity(p: ElasParams): Int = 2
 
   /** Registered levels of the first-minimum tree: each reduces blocks of treeArity lanes until treeKeep are left. */
   /** Register steps from stage C's issue to the output queue's write: D, D2, D3, E, F and the tree's levels. */

@@ -219,6 +219,11 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val pwEn = RegNext(pWen, false.B); val pwSlot = RegEnable(pWSlot, pWen); val pwNode = RegEnable(pWNode, pWen)
   val pwData = RegEnable(pWData, pWen)
   when(pwEn) { pMem.write(addr(pwSlot, pwNode), pwData) }
+  // P_k[1] of both slots also in registers, so the block RAM's read address is always B's node bx + 2 of its slot (from
+  // registers): the read for node 1 (B idle, or ending a row) depends on whether B starts, a decision that was the
+  // whole top's critical path in front of the address pins
+  val pNode1 = Reg(Vec(2, UInt(idW.W)))
+  when(pwEn && pwNode === 1.U) { pNode1(pwSlot) := pwData }
   /** A table with one writer and several readers: one block-RAM replica per reader (1R1W each), all written alike.
     * A read is issued a cycle before its data is used and sees every write up to and including its own cycle; later
     * writes are forwarded by the reader. Each replica is read-first (a `Mem` read into a register, Yosys' block RAM
@@ -744,7 +749,8 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   // B0: P is read for the node B1 holds two clocks later and P_k[x] is registered for B1 (`bPx`), so K's read
   // address in B1 does not start at P's block-RAM word. The node read: bx + 2 while B goes on, node 1 of the next
   // slot when B1 holds its row's last node (B may start the next row next clock), node 1 of this slot while idle (a
-  // start holds node 0, which needs no P). The addresses are formed from registers; B's decisions only select.
+  // start holds node 0, which needs no P). Node 1 comes from registers (`pNode1`), so the block RAM is always read at
+  // bx + 2, an address formed from registers; B's decisions only select after the read.
   // The word misses the P writes of its read's clock and of the next; they are compared with the read (registers)
   // as the word arrives. A write asked for in the clock bPx is loaded (A2 holds a row's last pixel as B starts the
   // row) is compared a clock ahead with the node B1 then holds, and taken in B1 (`kNode`).
@@ -756,14 +762,16 @@ class PostProcessSpeckle(p: ElasParams) extends Module {
   val bLast = Mux(bBusy, bLastAhead, bNAtMostOne)
   val bPx = {
     assert(bxPlus2 === bx(idW - 1, 0) + 2.U, "speckle: bxPlus2 differs from bx + 2")
-    val node = Mux(bActive && !bLast, bxPlus2, 1.U)
+    val toNode1 = !(bActive && !bLast) // the read is for node 1 (of this slot, or of the next when the row ends)
+    val node = Mux(toNode1, 1.U, bxPlus2)
     val slot = Mux(bActive && bLast, b2.succ, b2.cur)
-    val readAddr = Mux(bActive, Mux(bLast, addr(b2.succ, 1.U), addr(b2.cur, bxPlus2)), addr(b2.cur, 1.U))
-    val word = RegNext(pMem.read(readAddr))
+    val word = RegNext(pMem.read(addr(b2.cur, bxPlus2))) // used only when the read is for node bx + 2
+    val node1 = RegNext(pNode1(slot)) // read like the block RAM: the writes of this clock and the next are hits
+    val fromNode1 = RegNext(toNode1)
     val hitA = RegNext(pwEn && pwSlot === slot && pwNode === node, false.B)
     val dataA = RegNext(pwData)
     val hitB = pwEn && pwSlot === RegNext(slot) && pwNode === RegNext(node)
-    RegNext(Mux(hitB, pwData, Mux(hitA, dataA, word)))
+    RegNext(Mux(hitB, pwData, Mux(hitA, dataA, Mux(fromNode1, node1, word))))
   }
   val kNode = {
     val nextNode = Mux(bBusy, bx(idW - 1, 0) + 1.U, 1.U) // the node B1 holds next cycle, if it holds one
