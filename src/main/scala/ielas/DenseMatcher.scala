@@ -897,7 +897,8 @@ class DenseMatcher(p: ElasParams) extends Module {
     val live = Vec(2, Bool())
     val reach = Vec(2, SInt((colW + 1).W))
     val grid = Vec(2, Vec(S, SInt(dispW.W)))
-    val gridOk = Vec(2, Vec(S, Bool())) // grid entry k is before the list's first -1 and within reach
+    val gridOk = Vec(2, Vec(S, Bool())) // grid entry k is a candidate: before the list's first -1, within reach,
+    //                                     and outside the plane range (which evaluates it)
     val lo = Vec(2, UInt(p.signedDispBits.W))
     val hi = Vec(2, UInt(p.signedDispBits.W))
     val empty = Vec(2, Bool())
@@ -917,10 +918,18 @@ class DenseMatcher(p: ElasParams) extends Module {
     c.reach := b3.carry.reach
     c.grid := b3.carry.grid
     for (view <- 0 until 2) {
-      // the reach compare, a register ahead of the range compares it joins in stage C
+      // A grid entry du (in 0..D) lies in the plane range [max(d_p - R, 0), min(d_p + R, D)] exactly when
+      // |du - d_p| <= R; tested here from B3's registers, so stage C's lanes select a flip-flop (the range's bounds
+      // reached every grid lane's compare in C: the whole top's critical path at c = 8). d_p is within R of 0..D
+      // only if it lies in -R..D + R, where its low bits are its value.
+      val dp = b3.dp(view)
+      val dpNear = dp >= (-R).S && dp <= (D + R).S
+      val dpLow = dp(log2Ceil(D + R + 1), 0).asSInt
       for (k <- 0 until S) {
         val du = b3.carry.grid(view)(k).asUInt(p.dispBits - 1, 0)
-        c.gridOk(view)(k) := b3.listLive(view)(k) && du.zext <= b3.carry.reach(view)
+        val e = du.zext -& dpLow
+        val inPlaneRange = dpNear && e >= (-R).S && e <= R.S
+        c.gridOk(view)(k) := b3.listLive(view)(k) && du.zext <= b3.carry.reach(view) && !inPlaneRange
       }
     }
     c.sof := b3.carry.sof
@@ -971,9 +980,8 @@ class DenseMatcher(p: ElasParams) extends Module {
     val gridCands = (0 until S).map { k =>
       val d = c.grid(view)(k)
       val du = d.asUInt(p.dispBits - 1, 0)
-      val inRange = !c.empty(view) && du >= lo && du <= hi
       val x = Wire(new Cand)
-      x.valid := c.gridOk(view)(k) && !inRange // the list ends at the first -1
+      x.valid := c.gridOk(view)(k)
       x.d := du
       x.prior.on := false.B
       x.prior.index := 0.U
