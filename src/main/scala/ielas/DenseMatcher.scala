@@ -9,8 +9,8 @@ import chisel3.util._
   * Inputs: the descriptor stream (both views per pixel, raster order), the `planes` stream (one [[PlaneCell]] per
   * lattice cell, cell rows in order) and the `grid` stream (one [[GridCellPair]] per grid cell, grid rows in order).
   * The three streams are independent: plane cells and grid cells are taken into a free row bank whenever one is
-  * free, whatever their timing relative to the descriptors; the pixel pipeline waits (the whole pipeline stalls)
-  * only when the cell row or grid row a pixel needs has not arrived yet. Output: dense_L and dense_R per pixel in
+  * free, whatever their timing relative to the descriptors; the pixel pipeline waits (stage A holds the pixel and the
+  * stream waits) only when the cell row or grid row a pixel needs has not arrived yet. Output: dense_L and dense_R per pixel in
   * raster order (-1 invalid) with sof / eol / eof. frameWidth / frameHeight are sampled at the descriptor sof.
   *
   * '''Candidate lanes.''' A pixel has 2R+1 plane-range candidates and storedDisparities grid candidates per view,
@@ -56,12 +56,14 @@ import chisel3.util._
   * rows. Frames may follow each other back to back in all three streams; row banks are tagged with a frame parity
   * so the next frame's rows can load while the current frame ends.
   *
-  * Pipeline: A (window shift, cover tests, grid read) -> A1..A3 (owner) -> B -> B1 (texture SAD in quarters, plane
-  * offsets) -> B2 (plane products) -> B3 (plane value d_p) -> C (range lo..hi, candidates, ring reads; one cycle per
-  * candidate group), stalling as a whole; then, never stalling, D (ring read) -> D2 (the ring data: a block RAM
+  * Pipeline: A (window shift, cover tests, grid read; holds its pixel) -> A1..A3 (owner) -> B -> B1 (texture SAD in
+  * quarters, plane offsets) -> B2 (plane products) -> B3 (plane value d_p), never stalling -> a front queue of
+  * [[DenseMatcher.frontQueueDepth]] pixels (credit counted from A) -> C (range lo..hi, candidates, ring reads; holds
+  * its pixel one cycle per candidate group); then, never stalling, D (ring read) -> D2 (the ring data: a block RAM
   * takes it as its read register) -> D3 (byte differences) -> E (four quarter-descriptor SADs per lane) -> F (cost with
   * the prior) -> the first-minimum tree ([[DenseMatcher.treeRegisters]] register levels) -> an output queue with a slot
-  * for every pixel in flight behind C (credit counted). Each register step is a few LUTs deep (docs/timing.md).
+  * for every pixel in flight behind C (credit counted). Only A and C hold pixels, each on one-LUT handshakes; each
+  * register step is a few LUTs deep (docs/timing.md).
   */
 class DenseMatcher(p: ElasParams) extends Module {
   private val D = p.dispMax
@@ -367,16 +369,22 @@ class DenseMatcher(p: ElasParams) extends Module {
   }
 
   // ---------------------------------------------------------------- pipeline control
-  // Stages A..C stall as a whole (`adv`); stages D..F, the minimum tree and the output queue never stall. Stage C
-  // issues a pixel's candidates only while it holds a credit, a free slot of the output queue for every pixel in
-  // flight behind it, so the wide back half (ring data, SADs, tree) needs no enable: its fan-out and the handshake
-  // in front of it were the critical path (docs/architecture.md).
+  // Only stages A and C ever hold a pixel. A holds a row's first pixel until its primer and grid row are there, and
+  // any pixel until it has a front credit: a free slot of the front queue (between B3 and C) for every pixel in
+  // flight behind A, so A1..B3 never stall and their wide registers load every clock with no enable. C holds a pixel
+  // for its candidate groups and issues a group only while it holds an output credit, a free slot of the output queue
+  // for every pixel in flight behind C, so the back half (ring data, SADs, tree) needs no enable either. One stall
+  // signal across A..C, fanned out to every step's registers, was the critical path (docs/architecture.md).
   private val outDepth = DenseMatcher.backStages(p) + 2 // a credit comes back two cycles after the pixel's enqueue
   val outQueue = Module(new Queue(new Framed(new DisparityPair(p)), outDepth) {
     override def desiredName = "DenseOutputQueue" // one per design: the same module name in every top's Verilog
   })
   io.out <> outQueue.io.deq
   val credits = RegInit(outDepth.U(log2Ceil(outDepth + 1).W))
+  val creditOk = RegInit(true.B) // credits =/= 0
+  private val frontDepth = DenseMatcher.frontQueueDepth
+  val frontCredits = RegInit(frontDepth.U(log2Ceil(frontDepth + 1).W))
+  val frontCreditOk = RegInit(true.B) // frontCredits =/= 0
 
   val aValid = RegInit(false.B)
   val aFirst = RegInit(false.B) // a.u = 0, registered with a (it selects the raster window: keep it off the compare)
@@ -407,29 +415,25 @@ class DenseMatcher(p: ElasParams) extends Module {
   // every bit of the window, so it starts at a flip-flop rather than after the compare with lastCell
   val aNextCell = Reg(Bool())
   aNextCell := nextCellCol(a)
-  // The handshake (adv, upAdv, slot) and what it enables read flags kept as registers (credits =/= 0, the last
-  // candidate group, flushing, the primer lag done) rather than counter compares: it reaches every register of A..C.
-  val creditOk = RegInit(true.B) // credits =/= 0
-  val adv = creditOk && (!aValid || aReady) // stages A..C move (C issues a candidate group)
+  // The handshakes read flags kept as registers (the credits =/= 0, the last candidate group, flushing, the primer
+  // lag done, the front queue not empty) rather than counter compares: each is one LUT deep.
+  val aFire = aValid && aReady && frontCreditOk // stage A's pixel moves into A1 on this clock
+  val aTakes = !aValid || aFire //                 stage A takes the next pixel: the stream moves
   val cValid = RegInit(false.B)
   val group = RegInit(0.U(math.max(1, log2Ceil(groups)).W)) // candidate group stage C issues this cycle
   val cLast = if (groups == 1) true.B else RegInit(false.B) // group === groups - 1
-  val upAdv = adv && (!cValid || cLast) //          stage C takes the next pixel: the stream, A and B move
-  // upAdv's value at the next clock edge, from the next values of its five registers (assigned below)
-  val upAdvNext = Wire(Bool())
-  /** A step's valid bit and its value at the next edge. `moves` (its pixel moves on this clock: upAdv && valid) is a
-    * register formed a clock ahead from those next values, so the enable of the data a pixel carries into the next
-    * step starts at a flip-flop of its own, one per step, however far the step's registers are spread: those nets
-    * were the critical paths (docs/architecture.md). An assertion checks it against upAdv && valid. */
-  class Flow(val valid: Bool, val next: Bool) {
-    val moves: Bool = RegNext(upAdvNext && next, false.B)
-    assert(moves === (upAdv && valid), "DenseMatcher: a registered step enable differs from upAdv && valid")
-  }
+  val frontNonEmpty = RegInit(false.B) // the front queue holds a pixel
+  val cLoad = creditOk && (!cValid || cLast) && frontNonEmpty // stage C takes the front queue's next pixel
 
   val flush = RegInit(0.U(log2Ceil(D + 1).W)) // flush steps still to insert after a frame's last beat
   val flushing = RegInit(false.B) //               flush =/= 0
-  io.desc.ready := upAdv && !flushing
-  val slot = upAdv && (flushing || io.desc.valid)
+  // After a frame's flush the stream waits until the frame's last pixel has left stage C: between the rings' writes
+  // and reads a frame's pixels lie at consecutive stream positions, but the next frame's first dispMax positions
+  // carry no pixel, so two frames in flight at once would span more than ringDepth positions.
+  val draining = RegInit(false.B)
+  val inputOpen = RegInit(true.B) // !flushing && !draining
+  io.desc.ready := aTakes && inputOpen
+  val slot = aTakes && (flushing || (io.desc.valid && inputOpen))
   val slotSof = !flushing && io.desc.bits.sof
   // flushing's copy for the 2 x descBits data multiplexers, held inverted so Yosys keeps it apart: one net into those
   // and the handshake was the whole top's critical path (4.1 ns of routing to its first LUT on the ECP5)
@@ -438,9 +442,14 @@ class DenseMatcher(p: ElasParams) extends Module {
   val slotL = Mux(descLive, io.desc.bits.data.left, 0.U)
   val slotR = Mux(descLive, io.desc.bits.data.right, 0.U)
 
-  // descriptor rings, all written at the stream position's address `wp` (see "Candidate lanes")
+  // descriptor rings, all written at the stream position's address `wp` (see "Candidate lanes"); the target rings a
+  // clock after the slot (their reads come D positions and more later), so their write enable, which reaches a block
+  // RAM of every lane, starts at a flip-flop
   val wp = RegInit(0.U(ringW.W))
   when(slot) { wp := wp + 1.U }
+  val ringWrite = RegNext(slot, false.B)
+  val ringWriteAddr = RegEnable(wp, slot)
+  val ringWriteData = RegEnable(slotL, slot)
   val refRing = SyncReadMem(ringDepth, Vec(2, UInt(descBits.W))) // (descL, descR) of every stream position
   val ringL = Seq.fill(lanes)(SyncReadMem(ringDepth, UInt(descBits.W))) // descL: the right view's targets
   val ringR = Seq.fill(lanes)(SyncReadMem(ringDepth, UInt(descBits.W))) // descR(P) written from stage B
@@ -449,14 +458,12 @@ class DenseMatcher(p: ElasParams) extends Module {
   val wpCopies = (0 until lanes).map { k =>
     val key = ((k + 1) & ((1 << ringW) - 1)).U(ringW.W)
     val keyed = RegInit(key)
-    when(slot) { keyed := ((keyed ^ key) + 1.U) ^ key }
-    assert((keyed ^ key) === wp, "DenseMatcher: a ring write address copy differs from wp")
+    when(ringWrite) { keyed := ((keyed ^ key) + 1.U) ^ key }
+    assert(!ringWrite || (keyed ^ key) === ringWriteAddr, "DenseMatcher: a ring write address copy differs")
     keyed ^ key
   }
-  when(slot) {
-    refRing.write(wp, VecInit(slotL, slotR))
-    for ((ring, addr) <- ringL.zip(wpCopies)) ring.write(addr, slotL)
-  }
+  when(slot) { refRing.write(wp, VecInit(slotL, slotR)) }
+  when(ringWrite) { for ((ring, addr) <- ringL.zip(wpCopies)) ring.write(addr, ringWriteData) }
 
   // pixel generator: pixel P = n - dispMax enters stage A with stream position n
   val gen = Reg(new Pos)
@@ -481,11 +488,15 @@ class DenseMatcher(p: ElasParams) extends Module {
   val aRefAddr = DenseMatcher.stageAddress(wp - D.U, slot && !slotSof && lagDone && genActive)
   val aRef = refRing.read(aRefAddr)
 
-  when(io.desc.fire && io.desc.bits.eof) { flush := D.U; flushing := true.B; descLive := false.B }
+  // (nothing enters A while draining, so the pipeline, once empty, stays empty until the register below clears it)
+  val drained = RegNext(draining && !aValid && frontCredits === frontDepth.U && !cValid, false.B)
+  when(drained) { draining := false.B; inputOpen := true.B }
+  assert(inputOpen === (!flushing && !draining), "DenseMatcher: inputOpen differs from !flushing && !draining")
+  when(io.desc.fire && io.desc.bits.eof) { flush := D.U; flushing := true.B; descLive := false.B; inputOpen := false.B }
   when(slot) {
     when(flushing) {
       flush := flush - 1.U
-      when(flush === 1.U) { flushing := false.B; descLive := true.B }
+      when(flush === 1.U) { flushing := false.B; descLive := true.B; draining := true.B }
     }
     when(slotSof) {
       lag := 1.U
@@ -528,11 +539,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   assert(!genActive || genRowEnd === (gen.u === widthM1), "DenseMatcher: the generator's row-end register is wrong")
   assert(!genActive || !genRowEnd || genLastRow === (gen.v === heightM1),
     "DenseMatcher: the generator's last-row register is wrong")
-  // (slot implies upAdv) a pixel enters A in a slot past the primer lag; otherwise A empties when the pipeline moves
-  val aValidNext = Mux(upAdv, slot && !slotSof && lagDone && genActive, aValid)
-  aValid := aValidNext
-  val aFlow = new Flow(aValid, aValidNext)
-  val aFire = aFlow.moves // stage A's pixel moves on this cycle (upAdv && aValid, a register)
+  // (slot implies aTakes) a pixel enters A in a slot past the primer lag; otherwise A empties when its pixel leaves
+  aValid := Mux(aTakes, slot && !slotSof && lagDone && genActive, aValid)
   // refRing: read D positions behind the write (the ring is deeper than D + 10), or at the held address while nothing
   // is written (stalled); during the flush and the primer lag the held address meets the wrapping writes, unused
   CollisionFree.check("DenseMatcher: refRing", Seq(refRing), Seq(CollisionFree.Read(aRefAddr, aFire)),
@@ -700,17 +708,12 @@ class DenseMatcher(p: ElasParams) extends Module {
     when(aPixel.carry.eof || a.vG === (G - 1).U) { gridRelease(aGridSel) := true.B }
   }
 
-  /** A register step of the upstream pipeline (stages A1..B3): it takes the valid bit of the step before it whenever
-    * the upstream pipeline advances, and loads `fill` only when that bit is set (an empty step's data is never read),
-    * with the step before's registered `moves` as the enable.
-    */
-  def upStage[T <: Data](gen: T, prev: Flow)(fill: T => Unit): (Flow, T) = {
-    val valid = RegInit(false.B)
-    val next = Mux(upAdv, prev.valid, valid)
-    valid := next
+  /** A register step of stages A1..B3, which never stall: it takes the step before it, valid bit and data, every
+    * clock (no enable; an empty step's data is never read). */
+  def upStage[T <: Data](gen: T, prevValid: Bool)(fill: T => Unit): (Bool, T) = {
     val r = Reg(gen)
-    when(prev.moves) { fill(r) }
-    (new Flow(valid, next), r)
+    fill(r)
+    (RegNext(prevValid, false.B), r)
   }
 
   // Left view: cell cu spans x0..x1 (x1 = min(x0 + step, W - 1)), its triangles cover e = x0 h .. g and g .. f = x1 h
@@ -725,7 +728,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val covers = UInt((2 * K).W) // right view: triangle j*2 + t of the window covers the pixel (drawing order)
     val base2 = UInt((cellW + 1).W) // 2 x (cell of window entry 0)
   }
-  val (a1Flow, a1) = upStage(new StageA1, aFlow) { r =>
+  val (a1Valid, a1) = upStage(new StageA1, aFire) { r =>
     r.px := aPixel
     r.cu := a.cu
     r.uInH := a.uIn * aH
@@ -755,7 +758,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val blockAny = Vec(coverBlocks, Bool()) //   a block of 8 cover bits has a covering triangle
     val blockTop = Vec(coverBlocks, UInt(3.W)) // its highest one
   }
-  val (a2Flow, a2) = upStage(new StageA2, a1Flow) { r =>
+  val (a2Valid, a2) = upStage(new StageA2, a1Valid) { r =>
     r.px := a1.px
     r.leftOwner := Cat(a1.cu, a1.uInH >= a1.w1Up)(cellW, 0)
     r.base2 := a1.base2
@@ -772,7 +775,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val covered = Bool()
     val coveredOwner = UInt((cellW + 1).W) // base2 + j * 2 + t of the highest covering triangle in the window
   }
-  val (a3Flow, a3) = upStage(new StageA3, a2Flow) { r =>
+  val (a3Valid, a3) = upStage(new StageA3, a2Valid) { r =>
     r.px := a2.px
     r.leftOwner := a2.leftOwner
     val (any, top) = highest(a2.blockAny.zip(a2.blockTop))
@@ -782,7 +785,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   // Right view: the highest-indexed covering triangle in the window, else the owner of the last covered pixel.
   val carry = Reg(UInt((cellW + 1).W))
   val rightOwner = Mux(a3.covered, a3.coveredOwner, Mux(a3.px.first, a3.px.fallback, carry))
-  when(a3Flow.moves) { carry := rightOwner }
+  when(a3Valid) { carry := rightOwner }
 
   /** Triangle `owner` (cell * 2 + t) of the plane row bank `sel` in one view's banks. */
   def ownerRead[T <: Data](banks: Seq[MemBase[Vec[T]]], sel: UInt, owner: UInt): T = {
@@ -794,7 +797,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val owner = Vec(2, UInt((cellW + 1).W))
     val anchor = Vec(2, new Anchor)
   }
-  val (bFlow, b) = upStage(new StageB, a3Flow) { r =>
+  val (bValid, b) = upStage(new StageB, a3Valid) { r =>
     r.px := a3.px
     for ((owner, view) <- Seq(a3.leftOwner, rightOwner).zipWithIndex) {
       r.owner(view) := owner
@@ -802,9 +805,9 @@ class DenseMatcher(p: ElasParams) extends Module {
     }
   }
   // the left view's targets: descR of the pixels that have passed stage B
-  when(bFlow.moves) { ringR.foreach(_.write(b.px.carry.addr, b.px.carry.refs(1))) }
+  when(bValid) { ringR.foreach(_.write(b.px.carry.addr, b.px.carry.refs(1))) }
   // the plane row bank is free once the cell row's last pixel has read it (stage B)
-  when(bFlow.moves && b.px.release) { planeRelease(b.px.planeSel) := true.B }
+  when(bValid && b.px.release) { planeRelease(b.px.planeSel) := true.B }
   val ownerCoeffs = (0 until 2).map(view => ownerRead(coeffBanks(view), b.px.planeSel, b.owner(view)))
 
   // ---------------------------------------------------------------- stages B1..B3: texture, plane value and range
@@ -830,7 +833,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val dv = Vec(2, SInt((rowW + 2).W))
     val plane = Vec(2, new Coeffs)
   }
-  val (b1Flow, b1) = upStage(new StageB1, bFlow) { r =>
+  val (b1Valid, b1) = upStage(new StageB1, bValid) { r =>
     r.carry := b.px.carry
     r.inside := b.px.inside
     for (view <- 0 until 2) {
@@ -849,7 +852,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val priorOn = Vec(2, Bool())
     val negBlock = Vec(2, Vec(listBlocks, Bool())) // some grid entry of block i (entries 6i .. 6i + 5) is -1
   }
-  val (b2Flow, b2) = upStage(new StageB2, b1Flow) { r =>
+  val (b2Valid, b2) = upStage(new StageB2, b1Valid) { r =>
     r.carry := b1.carry
     for (view <- 0 until 2; i <- 0 until listBlocks) {
       r.negBlock(view)(i) := b1.carry.grid(view).slice(listBlock * i, listBlock * (i + 1)).map(_ < 0.S).reduce(_ || _)
@@ -870,7 +873,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     val priorOn = Vec(2, Bool())
     val listLive = Vec(2, Vec(S, Bool())) // grid entry k comes before the list's first -1
   }
-  val (b3Flow, b3) = upStage(new StageB3, b2Flow) { r =>
+  val (b3Valid, b3) = upStage(new StageB3, b2Valid) { r =>
     r.carry := b2.carry
     r.live := b2.live
     r.priorOn := b2.priorOn
@@ -908,15 +911,14 @@ class DenseMatcher(p: ElasParams) extends Module {
     val eol = Bool()
     val eof = Bool()
   }
-  val c = Reg(new StageC)
-  val cValidNext = Mux(upAdv, b3Flow.valid, cValid)
-  cValid := cValidNext
-  when(b3Flow.moves) { // (as in upStage: C's data is loaded with a valid pixel only)
-    c.addr := b3.carry.addr
-    c.refs := b3.carry.refs
-    c.live := b3.live
-    c.reach := b3.carry.reach
-    c.grid := b3.carry.grid
+  // B3's pixel, as stage C takes it, is written into the front queue (its data is only read when b3 was valid)
+  val entry = Wire(new StageC)
+  locally {
+    entry.addr := b3.carry.addr
+    entry.refs := b3.carry.refs
+    entry.live := b3.live
+    entry.reach := b3.carry.reach
+    entry.grid := b3.carry.grid
     for (view <- 0 until 2) {
       // A grid entry du (in 0..D) lies in the plane range [max(d_p - R, 0), min(d_p + R, D)] exactly when
       // |du - d_p| <= R; tested here from B3's registers, so stage C's lanes select a flip-flop (the range's bounds
@@ -929,25 +931,45 @@ class DenseMatcher(p: ElasParams) extends Module {
         val du = b3.carry.grid(view)(k).asUInt(p.dispBits - 1, 0)
         val e = du.zext -& dpLow
         val inPlaneRange = dpNear && e >= (-R).S && e <= R.S
-        c.gridOk(view)(k) := b3.listLive(view)(k) && du.zext <= b3.carry.reach(view) && !inPlaneRange
+        entry.gridOk(view)(k) := b3.listLive(view)(k) && du.zext <= b3.carry.reach(view) && !inPlaneRange
       }
     }
-    c.sof := b3.carry.sof
-    c.eol := b3.carry.eol
-    c.eof := b3.carry.eof
+    entry.sof := b3.carry.sof
+    entry.eol := b3.carry.eol
+    entry.eof := b3.carry.eof
     for (view <- 0 until 2) {
       val dp = b3.dp(view)
       val loRaw = dp - R.S
       val hiRaw = dp + R.S
       val lo = Mux(loRaw < 0.S, 0.S, loRaw)
       val hi = Mux(hiRaw > D.S, D.S, hiRaw)
-      c.empty(view) := lo > hi
-      c.lo(view) := lo.asUInt
-      c.hi(view) := hi.asUInt
-      c.off(view) := (lo - dp).asSInt
-      c.priorOn(view) := b3.priorOn(view)
+      entry.empty(view) := lo > hi
+      entry.lo(view) := lo.asUInt
+      entry.hi(view) := hi.asUInt
+      entry.off(view) := (lo - dp).asSInt
+      entry.priorOn(view) := b3.priorOn(view)
     }
   }
+
+  // The front queue: a pixel that has left stage A waits here for stage C. It never overflows: a pixel leaves A only
+  // with a front credit, and the credits count its slots. A memory with a combinational read port (LUT-RAM): C's
+  // registers take the entry at the read pointer directly.
+  val front = Mem(frontDepth, new StageC)
+  val frontWp = RegInit(0.U(log2Ceil(frontDepth).W))
+  val frontRp = RegInit(0.U(log2Ceil(frontDepth).W))
+  val frontCount = RegInit(0.U(log2Ceil(frontDepth + 1).W))
+  when(b3Valid) { front.write(frontWp, entry); frontWp := frontWp + 1.U }
+  require((new StageC).getWidth == DenseMatcher.frontEntryBits(p), "DenseMatcher: frontEntryBits is out of date")
+  val c = Reg(new StageC)
+  when(cLoad) { c := front.read(frontRp); frontRp := frontRp + 1.U }
+  frontCount := frontCount + b3Valid.asUInt - cLoad.asUInt
+  frontNonEmpty := Mux(b3Valid, true.B, Mux(cLoad, frontCount =/= 1.U, frontNonEmpty))
+  assert(frontNonEmpty === (frontCount =/= 0.U), "DenseMatcher: frontNonEmpty differs from the front queue's count")
+  assert(!b3Valid || cLoad || frontCount =/= frontDepth.U, "DenseMatcher: the front queue overflows")
+  cValid := Mux(creditOk && (!cValid || cLast), frontNonEmpty, cValid)
+  // a front credit is taken as a pixel leaves A and comes back as C takes it from the queue
+  frontCredits := frontCredits - aFire.asUInt + cLoad.asUInt
+  frontCreditOk := Mux(aFire === cLoad, frontCredits =/= 0.U, Mux(aFire, frontCredits =/= 1.U, true.B))
 
   // ---------------------------------------------------------------- stage C: candidates and their ring reads
   /** Which prior a candidate's cost takes: the table's index travels with the candidate instead of the 14-bit value,
@@ -1017,20 +1039,21 @@ class DenseMatcher(p: ElasParams) extends Module {
     // every clock: D keeps the word only when C issues
     (0 until lanes).map(k => (if (view == 0) ringR(k) else ringL(k)).read(targetAddrs(view)(k)))
   }
-  val issue = adv && cValid // C issues a candidate group into the back half this clock
+  val issue = creditOk && cValid // C issues a candidate group into the back half this clock
   val dValid = RegNext(issue, false.B)
   val dReg = Reg(new StageD)
-  // No used read meets a write: a valid target lies between the pixel's position (c.addr) and D positions on, all
-  // written; the write position is 1 to about 10 slots beyond (the pixels between A and C), and the ring is deeper
-  // than D + 10. ringR is written at stage B, 1 to about 4 positions after C's pixel; its valid targets lie at most
-  // D + 4 behind. Reads with a stale address or for an invalid candidate meet writes, unused.
+  // No used read meets a write: a right-view target lies between the pixel's position (c.addr) and D positions on,
+  // all written (a clock after their slot, before the pixel entered A); the writes since are at most
+  // frontQueueDepth + 3 positions beyond, and the ring is deeper than D + frontQueueDepth + 3 (ringDepth). ringR is
+  // written at stage B, at most frontQueueDepth + 1 positions after C's pixel; its valid targets lie at most D behind
+  // C's. Reads with a stale address or for an invalid candidate meet writes, unused.
   for (k <- 0 until lanes) {
     CollisionFree.check(s"DenseMatcher: ringL($k)", Seq(ringL(k)),
       Seq(CollisionFree.Read(targetAddrs(1)(k), dValid && dReg.cand(1)(k).valid)),
-      Seq(CollisionFree.Write(slot, wpCopies(k))))
+      Seq(CollisionFree.Write(ringWrite, wpCopies(k))))
     CollisionFree.check(s"DenseMatcher: ringR($k)", Seq(ringR(k)),
       Seq(CollisionFree.Read(targetAddrs(0)(k), dValid && dReg.cand(0)(k).valid)),
-      Seq(CollisionFree.Write(bFlow.moves, b.px.carry.addr)))
+      Seq(CollisionFree.Write(bValid, b.px.carry.addr)))
   }
   when(issue) { group := Mux(cLast, 0.U, group + 1.U) }
   val cLastNext = if (groups > 1) Mux(issue, !cLast && group === (groups - 2).U, cLast) else true.B
@@ -1038,9 +1061,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   val creditTaken = issue && cLast
   val creditBack = outQueue.io.deq.fire
   credits := credits - creditTaken.asUInt + creditBack.asUInt
-  val creditOkNext = Mux(creditTaken === creditBack, credits =/= 0.U, Mux(creditTaken, credits =/= 1.U, true.B))
-  creditOk := creditOkNext
-  upAdvNext := creditOkNext && (!aValidNext || aReadyNext) && (!cValidNext || cLastNext)
+  creditOk := Mux(creditTaken === creditBack, credits =/= 0.U, Mux(creditTaken, credits =/= 1.U, true.B))
   dReg.refs := c.refs
   dReg.live := c.live
   for (view <- 0 until 2; k <- 0 until lanes) dReg.cand(view)(k) := candC(view)(k)
@@ -1179,14 +1200,17 @@ class DenseMatcher(p: ElasParams) extends Module {
 }
 
 object DenseMatcher {
-  /** Per-pixel registers added for timing: A1..A3 (the owner) and B1..B3 (the plane value). */
-  val ownerStages: Int = 3
-  val planeStages: Int = 3
+  /** Slots of the front queue between stage B3 and stage C, and the front credits: at least the clocks from a pixel
+    * leaving stage A to its credit's return (A1..B3, the queue's write, C's load: 9), so the front half runs at one
+    * pixel per clock; 16, one LUT-RAM deep. */
+  val frontQueueDepth: Int = 16
 
-  /** Ring depth: a power of two of at least dispMax + 4 + ownerStages + planeStages entries, the pixels in flight
-    * between the ring writes and the reads.
+  /** Ring depth: a power of two of more than dispMax + frontQueueDepth + 3 entries. Between the pixel in stage C and
+    * the next pixel to enter stage A there are at most frontQueueDepth + 1 pixels (the front credits, and A), and the
+    * stream is dispMax positions ahead of that next pixel: the right view's targets (C's position + 0..dispMax) must
+    * not be overwritten, nor the left view's (C's position - dispMax..0) by stage B's writes.
     */
-  def ringDepth(p: ElasParams): Int = 1 << log2Ceil(p.dispMax + 4 + ownerStages + planeStages)
+  def ringDepth(p: ElasParams): Int = 1 << log2Ceil(p.dispMax + frontQueueDepth + 4)
 
   /** Values the first-minimum tree's last register level leaves per view: 2 (one candidate group per pixel: the
     * last compare-select feeds the output queue) or 1 (several groups: the running minimum over the groups then takes
@@ -1227,12 +1251,20 @@ object DenseMatcher {
   /** Bits of a scaled cut point (|x - s| * h <= max(maxWidth, dispMax) * step), signed. */
   def spanBits(p: ElasParams): Int = log2Ceil(math.max(p.maxWidth, p.dispMax + 1) * p.candidateStep + 1) + 2
   def gridCellBits(p: ElasParams): Int = 2 * p.storedDisparities * p.signedDispBits
-  /** Cycles a frame costs beyond its pixels: the flush, the three pipeline registers, and the first row's planes
-    * and primer (K - 1 cells and its register step, after the frame size's two register steps) when they have not
-    * arrived during the first dispMax steps.
+  /** Bits of a front queue entry (stage C's registers): ring address, both references, and per view the live flag,
+    * reach, grid list and its candidate flags, plane range (lo, hi, empty, offset) and prior flag; sof, eol, eof. */
+  def frontEntryBits(p: ElasParams): Int = {
+    val offBits = log2Ceil(3 * p.planeRadius + 1) + 2
+    log2Ceil(ringDepth(p)) + 2 * 8 * p.descriptorBytes + 3 +
+      2 * (1 + p.colBits + 1 + p.storedDisparities * (p.signedDispBits + 1) + 2 * p.signedDispBits + 1 + offBits + 1)
+  }
+  /** Cycles a frame costs beyond its pixels: the flush, the pipeline registers (A1..B3 and the front queue among
+    * them), the drain after the flush (A1..B3, the queue, C's groups and the drain's register), and the first row's
+    * planes and primer (K - 1 cells and its register step, after the frame size's two register steps) when they have
+    * not arrived during the first dispMax steps.
     */
   def cycleSlack(p: ElasParams): Int =
-    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 6 + ownerStages + planeStages + 4 + treeRegisters(p)
+    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 6 + 7 + 4 + treeRegisters(p) + 10 + p.denseGroups
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
@@ -1247,6 +1279,9 @@ object DenseMatcher {
       "both views' descriptors of the last ringDepth stream positions, SyncReadMem 1R1W (the references)"),
     MemoryUse("Dense", "targetRings", ringDepth(p), 2 * p.denseCandidates * 8 * p.descriptorBytes,
       "descL by stream position and descR by stage-B pixel, one SyncReadMem 1R1W replica per candidate lane and view"),
+    MemoryUse("Dense", "frontQueue", frontQueueDepth, frontEntryBits(p),
+      "pixels between stage B3 and stage C (addresses, references, candidate lists, plane range), Mem 1R1W with a " +
+      "combinational read port (LUT-RAM)"),
     MemoryUse("Dense", "raster", 2 * rasterCells(p), 1 + 4 * spanBits(p),
       "registers: raster window and the next row's shadow")
   )
