@@ -57,9 +57,9 @@ import chisel3.util._
   * so the next frame's rows can load while the current frame ends.
   *
   * Pipeline: A (window shift, cover tests, grid read; holds its pixel) -> A1..A3 (owner) -> B -> B1 (texture SAD in
-  * quarters, plane offsets) -> B2 (plane products) -> B3 (plane value d_p), never stalling -> a front queue of
-  * [[DenseMatcher.frontQueueDepth]] pixels (credit counted from A) -> C (range lo..hi, candidates, ring reads; holds
-  * its pixel one cycle per candidate group); then, never stalling, D (ring read) -> D2 (the ring data: a block RAM
+  * quarters, plane offsets) -> B2 (plane products) -> B3 (plane value d_p) -> B4 (range lo..hi, the grid lanes' flags),
+  * never stalling -> a front queue of [[DenseMatcher.frontQueueDepth]] pixels (credit counted from A) -> C
+  * (candidates, ring reads; holds its pixel one cycle per candidate group); then, never stalling, D (ring read) -> D2 (the ring data: a block RAM
   * takes it as its read register) -> D3 (byte differences) -> E (four quarter-descriptor SADs per lane) -> F (cost with
   * the prior) -> the first-minimum tree ([[DenseMatcher.treeRegisters]] register levels) -> an output queue with a slot
   * for every pixel in flight behind C (credit counted). Only A and C hold pixels, each on one-LUT handshakes; each
@@ -370,8 +370,8 @@ class DenseMatcher(p: ElasParams) extends Module {
 
   // ---------------------------------------------------------------- pipeline control
   // Only stages A and C ever hold a pixel. A holds a row's first pixel until its primer and grid row are there, and
-  // any pixel until it has a front credit: a free slot of the front queue (between B3 and C) for every pixel in
-  // flight behind A, so A1..B3 never stall and their wide registers load every clock with no enable. C holds a pixel
+  // any pixel until it has a front credit: a free slot of the front queue (between B4 and C) for every pixel in
+  // flight behind A, so A1..B4 never stall and their wide registers load every clock with no enable. C holds a pixel
   // for its candidate groups and issues a group only while it holds an output credit, a free slot of the output queue
   // for every pixel in flight behind C, so the back half (ring data, SADs, tree) needs no enable either. One stall
   // signal across A..C, fanned out to every step's registers, was the critical path (docs/architecture.md).
@@ -708,7 +708,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     when(aPixel.carry.eof || a.vG === (G - 1).U) { gridRelease(aGridSel) := true.B }
   }
 
-  /** A register step of stages A1..B3, which never stall: it takes the step before it, valid bit and data, every
+  /** A register step of stages A1..B4, which never stall: it takes the step before it, valid bit and data, every
     * clock (no enable; an empty step's data is never read). */
   def upStage[T <: Data](gen: T, prevValid: Bool)(fill: T => Unit): (Bool, T) = {
     val r = Reg(gen)
@@ -893,7 +893,7 @@ class DenseMatcher(p: ElasParams) extends Module {
     }
   }
 
-  // ---------------------------------------------------------------- stage B3 -> C: the plane range
+  // ---------------------------------------------------------------- stage B4: the plane range
   class StageC extends Bundle {
     val addr = UInt(ringW.W)
     val refs = Vec(2, UInt(descBits.W))
@@ -911,9 +911,9 @@ class DenseMatcher(p: ElasParams) extends Module {
     val eol = Bool()
     val eof = Bool()
   }
-  // B3's pixel, as stage C takes it, is written into the front queue (its data is only read when b3 was valid)
-  val entry = Wire(new StageC)
-  locally {
+  // Stage B4 holds B3's pixel as stage C takes it, so the front queue is written from registers (the grid lanes'
+  // compares in front of the queue's LUT-RAM were the whole top's critical path at c = 8).
+  val (b4Valid, entry) = upStage(new StageC, b3Valid) { entry =>
     entry.addr := b3.carry.addr
     entry.refs := b3.carry.refs
     entry.live := b3.live
@@ -958,14 +958,14 @@ class DenseMatcher(p: ElasParams) extends Module {
   val frontWp = RegInit(0.U(log2Ceil(frontDepth).W))
   val frontRp = RegInit(0.U(log2Ceil(frontDepth).W))
   val frontCount = RegInit(0.U(log2Ceil(frontDepth + 1).W))
-  when(b3Valid) { front.write(frontWp, entry); frontWp := frontWp + 1.U }
+  when(b4Valid) { front.write(frontWp, entry); frontWp := frontWp + 1.U }
   require((new StageC).getWidth == DenseMatcher.frontEntryBits(p), "DenseMatcher: frontEntryBits is out of date")
   val c = Reg(new StageC)
   when(cLoad) { c := front.read(frontRp); frontRp := frontRp + 1.U }
-  frontCount := frontCount + b3Valid.asUInt - cLoad.asUInt
-  frontNonEmpty := Mux(b3Valid, true.B, Mux(cLoad, frontCount =/= 1.U, frontNonEmpty))
+  frontCount := frontCount + b4Valid.asUInt - cLoad.asUInt
+  frontNonEmpty := Mux(b4Valid, true.B, Mux(cLoad, frontCount =/= 1.U, frontNonEmpty))
   assert(frontNonEmpty === (frontCount =/= 0.U), "DenseMatcher: frontNonEmpty differs from the front queue's count")
-  assert(!b3Valid || cLoad || frontCount =/= frontDepth.U, "DenseMatcher: the front queue overflows")
+  assert(!b4Valid || cLoad || frontCount =/= frontDepth.U, "DenseMatcher: the front queue overflows")
   cValid := Mux(creditOk && (!cValid || cLast), frontNonEmpty, cValid)
   // a front credit is taken as a pixel leaves A and comes back as C takes it from the queue
   frontCredits := frontCredits - aFire.asUInt + cLoad.asUInt
@@ -1200,8 +1200,8 @@ class DenseMatcher(p: ElasParams) extends Module {
 }
 
 object DenseMatcher {
-  /** Slots of the front queue between stage B3 and stage C, and the front credits: at least the clocks from a pixel
-    * leaving stage A to its credit's return (A1..B3, the queue's write, C's load: 9), so the front half runs at one
+  /** Slots of the front queue between stage B4 and stage C, and the front credits: at least the clocks from a pixel
+    * leaving stage A to its credit's return (A1..B4, the queue's write, C's load: 10), so the front half runs at one
     * pixel per clock; 16, one LUT-RAM deep. */
   val frontQueueDepth: Int = 16
 
@@ -1258,13 +1258,13 @@ object DenseMatcher {
     log2Ceil(ringDepth(p)) + 2 * 8 * p.descriptorBytes + 3 +
       2 * (1 + p.colBits + 1 + p.storedDisparities * (p.signedDispBits + 1) + 2 * p.signedDispBits + 1 + offBits + 1)
   }
-  /** Cycles a frame costs beyond its pixels: the flush, the pipeline registers (A1..B3 and the front queue among
-    * them), the drain after the flush (A1..B3, the queue, C's groups and the drain's register), and the first row's
+  /** Cycles a frame costs beyond its pixels: the flush, the pipeline registers (A1..B4 and the front queue among
+    * them), the drain after the flush (A1..B4, the queue, C's groups and the drain's register), and the first row's
     * planes and primer (K - 1 cells and its register step, after the frame size's two register steps) when they have
     * not arrived during the first dispMax steps.
     */
   def cycleSlack(p: ElasParams): Int =
-    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 6 + 7 + 4 + treeRegisters(p) + 10 + p.denseGroups
+    p.dispMax + 6 + (p.latticeColsMax - 1) + rasterCells(p) + 6 + 8 + 4 + treeRegisters(p) + 11 + p.denseGroups
 
   def memorySummary(p: ElasParams): Seq[MemoryUse] = Seq(
     MemoryUse("Dense", "cornerBanks", p.latticeColsMax - 1, 2 * 4 * p.dispBits,
