@@ -90,6 +90,8 @@ class DenseMatcher(p: ElasParams) extends Module {
   private val groups = p.denseGroups //        cycles per pixel of candidate evaluation (lanes x groups >= candidates)
   private val ringDepth = DenseMatcher.ringDepth(p)
   private val ringW = log2Ceil(ringDepth)
+  private val copyLanes = 4 //          lanes sharing one copy of a target ring's write address and data
+  private val ringCopies = (lanes + copyLanes - 1) / copyLanes
   private val sadParts = 4 //          each lane's SAD in four registered parts (stages D3, E)
   private val costW = 14 //             SAD16 <= 4080 plus a prior >= -4096 fits 14 signed bits
   require(p.priorTable.take(R + 1).forall(v => v >= -(1 << 12) && v < (1 << 12)),
@@ -380,11 +382,11 @@ class DenseMatcher(p: ElasParams) extends Module {
     override def desiredName = "DenseOutputQueue" // one per design: the same module name in every top's Verilog
   })
   io.out <> outQueue.io.deq
-  val credits = RegInit(outDepth.U(log2Ceil(outDepth + 1).W))
-  val creditOk = RegInit(true.B) // credits =/= 0
+  val outCredits = new Credits(outDepth, "credits", "creditOk")
+  val creditOk = outCredits.ok
   private val frontDepth = DenseMatcher.frontQueueDepth
-  val frontCredits = RegInit(frontDepth.U(log2Ceil(frontDepth + 1).W))
-  val frontCreditOk = RegInit(true.B) // frontCredits =/= 0
+  val frontCredits = new Credits(frontDepth, "frontCredits", "frontCreditOk")
+  val frontCreditOk = frontCredits.ok
 
   val aValid = RegInit(false.B)
   val aFirst = RegInit(false.B) // a.u = 0, registered with a (it selects the raster window: keep it off the compare)
@@ -443,27 +445,34 @@ class DenseMatcher(p: ElasParams) extends Module {
   val slotR = Mux(descLive, io.desc.bits.data.right, 0.U)
 
   // descriptor rings, all written at the stream position's address `wp` (see "Candidate lanes"); the target rings a
-  // clock after the slot (their reads come D positions and more later), so their write enable, which reaches a block
-  // RAM of every lane, starts at a flip-flop
+  // clock after the slot (their reads come D positions and more later), from registers near their block RAMs
   val wp = RegInit(0.U(ringW.W))
   when(slot) { wp := wp + 1.U }
-  val ringWrite = RegNext(slot, false.B)
-  val ringWriteAddr = RegEnable(wp, slot)
-  val ringWriteData = RegEnable(slotL, slot)
   val refRing = SyncReadMem(ringDepth, Vec(2, UInt(descBits.W))) // (descL, descR) of every stream position
   val ringL = Seq.fill(lanes)(SyncReadMem(ringDepth, UInt(descBits.W))) // descL: the right view's targets
   val ringR = Seq.fill(lanes)(SyncReadMem(ringDepth, UInt(descBits.W))) // descR(P) written from stage B
-  // Each replica of ringL is written at its own copy of wp: one register fanned out to every replica's block RAMs was
-  // one net of 9.6 ns on the ECP5 at small-c4. Copy k holds wp ^ key (or Yosys would merge the copies back into one).
-  val wpCopies = (0 until lanes).map { k =>
-    val key = ((k + 1) & ((1 << ringW) - 1)).U(ringW.W)
-    val keyed = RegInit(key)
-    when(ringWrite) { keyed := ((keyed ^ key) + 1.U) ^ key }
-    assert(!ringWrite || (keyed ^ key) === ringWriteAddr, "DenseMatcher: a ring write address copy differs")
-    keyed ^ key
+  // A target ring's write reaches a block RAM of every lane, so each group of `copyLanes` lanes takes its write address
+  // and data from its own registers (one data register to every lane was one net of 16 ns on the ECP5 at small, one
+  // address register 9.6 ns at small-c4). Copy g loads with the write's source, and also when `copyPhase` = g: those
+  // loads are never written (a write follows only a load with the source set), but they give each copy its own
+  // enable, so synthesis cannot merge the copies back into one register.
+  class RingWrite extends Bundle {
+    val addr = UInt(ringW.W)
+    val data = UInt(descBits.W)
   }
+  val copyPhase = RegInit(0.U(log2Ceil(ringCopies + 1).W))
+  copyPhase := copyPhase + 1.U
+  def ringWriteCopies(load: Bool, addr: UInt, data: UInt): (Bool, Seq[RingWrite]) = {
+    val copies = (0 until ringCopies).map { g =>
+      val r = Reg(new RingWrite)
+      when(load || copyPhase === g.U) { r.addr := addr; r.data := data }
+      r
+    }
+    (RegNext(load, false.B), (0 until lanes).map(k => copies(k / copyLanes)))
+  }
+  val (ringLWrite, ringLCopies) = ringWriteCopies(slot, wp, slotL)
   when(slot) { refRing.write(wp, VecInit(slotL, slotR)) }
-  when(ringWrite) { for ((ring, addr) <- ringL.zip(wpCopies)) ring.write(addr, ringWriteData) }
+  when(ringLWrite) { for ((ring, w) <- ringL.zip(ringLCopies)) ring.write(w.addr, w.data) }
 
   // pixel generator: pixel P = n - dispMax enters stage A with stream position n
   val gen = Reg(new Pos)
@@ -489,7 +498,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   val aRef = refRing.read(aRefAddr)
 
   // (nothing enters A while draining, so the pipeline, once empty, stays empty until the register below clears it)
-  val drained = RegNext(draining && !aValid && frontCredits === frontDepth.U && !cValid, false.B)
+  val drained = RegNext(draining && !aValid && frontCredits.full && !cValid, false.B)
   when(drained) { draining := false.B; inputOpen := true.B }
   assert(inputOpen === (!flushing && !draining), "DenseMatcher: inputOpen differs from !flushing && !draining")
   when(io.desc.fire && io.desc.bits.eof) { flush := D.U; flushing := true.B; descLive := false.B; inputOpen := false.B }
@@ -804,8 +813,9 @@ class DenseMatcher(p: ElasParams) extends Module {
       r.anchor(view) := ownerRead(anchorBanks(view), a3.px.planeSel, owner)
     }
   }
-  // the left view's targets: descR of the pixels that have passed stage B
-  when(bValid) { ringR.foreach(_.write(b.px.carry.addr, b.px.carry.refs(1))) }
+  // the left view's targets: descR of the pixels that have passed stage B (written a clock later, like ringL)
+  val (ringRWrite, ringRCopies) = ringWriteCopies(bValid, b.px.carry.addr, b.px.carry.refs(1))
+  when(ringRWrite) { for ((ring, w) <- ringR.zip(ringRCopies)) ring.write(w.addr, w.data) }
   // the plane row bank is free once the cell row's last pixel has read it (stage B)
   when(bValid && b.px.release) { planeRelease(b.px.planeSel) := true.B }
   val ownerCoeffs = (0 until 2).map(view => ownerRead(coeffBanks(view), b.px.planeSel, b.owner(view)))
@@ -968,8 +978,7 @@ class DenseMatcher(p: ElasParams) extends Module {
   assert(!b4Valid || cLoad || frontCount =/= frontDepth.U, "DenseMatcher: the front queue overflows")
   cValid := Mux(creditOk && (!cValid || cLast), frontNonEmpty, cValid)
   // a front credit is taken as a pixel leaves A and comes back as C takes it from the queue
-  frontCredits := frontCredits - aFire.asUInt + cLoad.asUInt
-  frontCreditOk := Mux(aFire === cLoad, frontCredits =/= 0.U, Mux(aFire, frontCredits =/= 1.U, true.B))
+  frontCredits.update(taken = aFire, back = cLoad)
 
   // ---------------------------------------------------------------- stage C: candidates and their ring reads
   /** Which prior a candidate's cost takes: the table's index travels with the candidate instead of the 14-bit value,
@@ -1045,23 +1054,23 @@ class DenseMatcher(p: ElasParams) extends Module {
   // No used read meets a write: a right-view target lies between the pixel's position (c.addr) and D positions on,
   // all written (a clock after their slot, before the pixel entered A); the writes since are at most
   // frontQueueDepth + 3 positions beyond, and the ring is deeper than D + frontQueueDepth + 3 (ringDepth). ringR is
-  // written at stage B, at most frontQueueDepth + 1 positions after C's pixel; its valid targets lie at most D behind
-  // C's. Reads with a stale address or for an invalid candidate meet writes, unused.
+  // written a clock after stage B, at most frontQueueDepth + 1 positions after C's pixel and before that pixel reaches
+  // C; its valid targets lie at most D behind C's. Reads with a stale address or for an invalid candidate meet writes,
+  // unused.
   for (k <- 0 until lanes) {
     CollisionFree.check(s"DenseMatcher: ringL($k)", Seq(ringL(k)),
       Seq(CollisionFree.Read(targetAddrs(1)(k), dValid && dReg.cand(1)(k).valid)),
-      Seq(CollisionFree.Write(ringWrite, wpCopies(k))))
+      Seq(CollisionFree.Write(ringLWrite, ringLCopies(k).addr)))
     CollisionFree.check(s"DenseMatcher: ringR($k)", Seq(ringR(k)),
       Seq(CollisionFree.Read(targetAddrs(0)(k), dValid && dReg.cand(0)(k).valid)),
-      Seq(CollisionFree.Write(bValid, b.px.carry.addr)))
+      Seq(CollisionFree.Write(ringRWrite, ringRCopies(k).addr)))
   }
   when(issue) { group := Mux(cLast, 0.U, group + 1.U) }
   val cLastNext = if (groups > 1) Mux(issue, !cLast && group === (groups - 2).U, cLast) else true.B
   if (groups > 1) cLast := cLastNext
   val creditTaken = issue && cLast
   val creditBack = outQueue.io.deq.fire
-  credits := credits - creditTaken.asUInt + creditBack.asUInt
-  creditOk := Mux(creditTaken === creditBack, credits =/= 0.U, Mux(creditTaken, credits =/= 1.U, true.B))
+  outCredits.update(taken = creditTaken, back = creditBack)
   dReg.refs := c.refs
   dReg.live := c.live
   for (view <- 0 until 2; k <- 0 until lanes) dReg.cand(view)(k) := candC(view)(k)

@@ -138,8 +138,8 @@ class RegisterSlice[T <: Data](gen: T) extends Module {
     heldValid := false.B
   }.elsewhen(io.in.valid && !heldValid) {
     heldValid := true.B
-    heldBits := io.in.bits
   }
+  when(!heldValid) { heldBits := io.in.bits } // while empty: its enable is a flip-flop, not the consumer's ready
 }
 
 object RegisterSlice {
@@ -244,5 +244,19 @@ class RowsAhead(width: Int, maxAhead: Int) {
   private def setFree(clear: Bool, rowIn: Bool, rowOut: Bool): Unit = {
     free := clear || Mux(rowIn === rowOut, ahead <= maxAhead.U,
       Mux(rowIn, ahead <= (maxAhead - 1).U, ahead <= (maxAhead + 1).U))
+  }
+}
+
+/** `depth` credits counted down as they are taken and up as they come back, with "a credit is free" in a register of
+  * its own (from the count and this clock's moves), so a handshake that needs a credit reads one flip-flop.
+  * Call [[update]] once per clock. Verilog names: `name` (the count) and `okName`.
+  */
+class Credits(depth: Int, name: String, okName: String) {
+  val count: UInt = RegInit(depth.U(log2Ceil(depth + 1).W)).suggestName(name)
+  val ok: Bool = RegInit(true.B).suggestName(okName) // count =/= 0
+  val full: Bool = count === depth.U // every credit is back
+  def update(taken: Bool, back: Bool): Unit = {
+    count := count - taken.asUInt + back.asUInt
+    ok := Mux(taken === back, count =/= 0.U, Mux(taken, count =/= 1.U, true.B))
   }
 }
